@@ -1,0 +1,27 @@
+"""tai_coll: particles colliding with shapes, on Taichi, on the CPU and on GPUs.
+
+    import tai_coll as tc
+    tc.init(arch="cpu")
+    scene = tc.Scene(dt=1/600, substeps=10)
+    scene.add_collider(tc.Plane(point=(0, 0, 0), normal=(0, 1, 0)),
+                       material=tc.Material(restitution=0.5, friction=0.3))
+    scene.add_particles(positions=np.random.rand(1000, 3), radius=0.005)
+    scene.step(frames=10)
+
+Importing this package never touches a GPU or Vulkan; `tc.init()` (or first use) starts Taichi.
+"""
+
+from .errors import SimulationError
+from .geometry import Box, Capsule, Collider, Cylinder, Plane, Sphere, rotation_matrix
+from .materials import Material
+from .response import collide, collide_pair
+from .runtime import RuntimeInfo, init
+from .scene.scene import Scene
+from .solvers import ImpulseSolver
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "Plane", "RuntimeInfo",
+    "Scene", "SimulationError", "Sphere", "collide", "collide_pair", "init", "rotation_matrix",
+]

@@ -1,0 +1,61 @@
+"""Rigid frames on the host (numpy): rotations, axis alignment, and their rates.
+
+A collider's geometry lives in its local frame; the world point x maps to the local point
+R^T (x - c). Kernels do the same arithmetic with the matrices computed here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def skew(w: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def rotation_matrix(axis, angle: float) -> np.ndarray:
+    """Rotation by `angle` radians about `axis` (Rodrigues' formula)."""
+    axis = np.asarray(axis, dtype=np.float64)
+    norm = np.linalg.norm(axis)
+    if norm < 1e-12:
+        raise ValueError("axis must be a non-zero vector")
+    k = axis / norm
+    K = skew(k)
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
+
+
+def rotation_from_vector(rotvec: np.ndarray) -> np.ndarray:
+    """exp([rotvec]x): rotation about rotvec by |rotvec| radians."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-15:
+        return np.eye(3) + skew(rotvec)
+    return rotation_matrix(rotvec, angle)
+
+
+def rotation_to_vector(R: np.ndarray) -> np.ndarray:
+    """log(R) as a rotation vector (axis * angle), the inverse of `rotation_from_vector`."""
+    cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+    angle = np.arccos(cos)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if angle < 1e-8:
+        return 0.5 * w
+    if np.pi - angle < 1e-6:
+        # Near a half turn the antisymmetric part vanishes: take the axis from R + I.
+        M = (R + np.eye(3)) / 2.0
+        k = M[np.argmax(np.diag(M))]
+        return np.pi * k / np.linalg.norm(k)
+    return angle / (2.0 * np.sin(angle)) * w
+
+
+def align_y(direction: np.ndarray) -> np.ndarray:
+    """A rotation taking the local +y axis to the unit vector along `direction`."""
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    y = np.array([0.0, 1.0, 0.0])
+    c = float(np.dot(y, d))
+    if c > 1.0 - 1e-12:
+        return np.eye(3)
+    if c < -1.0 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])  # half turn about x
+    axis = np.cross(y, d)
+    return rotation_matrix(axis, np.arctan2(np.linalg.norm(axis), c))

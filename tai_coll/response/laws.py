@@ -1,0 +1,74 @@
+"""The collision routine of PHYSICS.md 2, the one copy used by every kernel and by `collide()`.
+
+Works on relative velocity only: callers subtract the object's (surface) velocity first
+and add it back after, so the same law serves still and moving colliders alike.
+"""
+
+import taichi as ti
+
+vec3 = ti.math.vec3
+
+WET_LINEAR = 0       # v_T *= max(0, 1 - D dv_N)   (seed 001)
+WET_EXPONENTIAL = 1  # v_T *= exp(-D dv_N)          (seed 001's unconditionally stable form)
+
+
+@ti.func
+def respond(v_rel: vec3, n: vec3, restitution, friction, wet_friction, wet_law: ti.template()):
+    """New relative velocity after a collision with outward unit normal n.
+
+    PHYSICS.md 2: only an approaching contact (v_N < 0) changes; v_N_new = -e v_N, so
+    dv_N = (1 + e)|v_N|; dry Coulomb friction v_T *= max(0, 1 - mu dv_N / |v_T|) (static
+    when the bracket reaches 0); then wet friction from D = wet_friction.
+    Returns (v_rel_new, dv_N).
+    """
+    vn = v_rel.dot(n)
+    out = v_rel
+    dvn = 0.0
+    if vn < 0.0:
+        vt = v_rel - vn * n
+        dvn = (1.0 + restitution) * (-vn)
+        vt_len = vt.norm()
+        scale = 0.0
+        if vt_len > 0.0:
+            scale = ti.max(0.0, 1.0 - friction * dvn / vt_len)
+        if ti.static(wet_law == WET_LINEAR):
+            scale *= ti.max(0.0, 1.0 - wet_friction * dvn)
+        else:
+            scale *= ti.exp(-wet_friction * dvn)
+        out = scale * vt - restitution * vn * n
+    return out, dvn
+
+
+@ti.func
+def respond_pair(va: vec3, vb: vec3, inv_ma, inv_mb, n: vec3, restitution, friction,
+                 wet_friction, wet_law: ti.template()):
+    """Two movable bodies (PHYSICS.md 2): n points from b to a.
+
+    The law gives the wanted change of relative velocity; the impulse I solves
+    dv_rel = (1/m_a + 1/m_b) I and is applied as +I/m_a, -I/m_b, so momentum is conserved.
+    Returns (va_new, vb_new).
+    """
+    v_rel = va - vb
+    v_new, dvn = respond(v_rel, n, restitution, friction, wet_friction, wet_law)
+    impulse = (v_new - v_rel) / (inv_ma + inv_mb)
+    return va + inv_ma * impulse, vb - inv_mb * impulse
+
+
+@ti.func
+def repel(v_rel: vec3, n: vec3, target_vn, friction):
+    """Last resort (PHYSICS.md 3, seed 001): accept a penetration and push out.
+
+    The relative normal velocity is raised to at least `target_vn` (the caller makes it
+    proportional to the depth); friction acts as usual with that dv_N.
+    """
+    vn = v_rel.dot(n)
+    out = v_rel
+    if vn < target_vn:
+        dvn = target_vn - vn
+        vt = v_rel - vn * n
+        vt_len = vt.norm()
+        scale = 0.0
+        if vt_len > 0.0:
+            scale = ti.max(0.0, 1.0 - friction * dvn / vt_len)
+        out = scale * vt + target_vn * n
+    return out

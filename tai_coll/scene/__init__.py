@@ -1,0 +1,1 @@
+"""Scene assembly: the particle store, the collider table, motion, and the Scene itself."""

@@ -1,0 +1,52 @@
+"""Kernel-argument bundles for the particle store and the collider table.
+
+State lives in Taichi ndarrays rather than fields: a kernel taking ndarrays compiles once per
+dtype and serves every scene (and every capacity), where field arguments would compile the
+step kernels again for each new scene. Inside a kernel the arrays are regrouped into these
+bundles and handed to @ti.func helpers as template arguments, so the helpers read
+`p.x[i]` and `c.center1[ci]` as if they were fields.
+"""
+
+import warnings
+
+import taichi as ti
+
+# Building a bundle inside a kernel is plain Python evaluated at compile time, which is what
+# we want; Taichi warns about any such call, so silence exactly these two.
+warnings.filterwarnings("ignore", message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays)"',
+                        category=SyntaxWarning)
+
+vec3 = ti.math.vec3
+mat3 = ti.math.mat3
+vec4 = ti.math.vec4
+
+
+# Element types are left to the arrays passed in: annotations are evaluated at import time,
+# before `init()` has chosen f32 or f64, and a fixed dtype here would pin the wrong one.
+def vectors(dim: int = 3):
+    return ti.types.ndarray(ndim=1)
+
+
+def scalars(dtype=None):
+    return ti.types.ndarray(ndim=1)
+
+
+def matrices():
+    return ti.types.ndarray(ndim=1)
+
+
+class ParticleArrays:
+    """x, v, mass, radius, flags, stats: see `ParticleStore`."""
+
+    def __init__(self, x, v, mass, radius, flags, stats):
+        self.x, self.v, self.mass, self.radius, self.flags, self.stats = x, v, mass, radius, flags, stats
+
+
+class ColliderArrays:
+    """The collider table's columns: see `ColliderTable`."""
+
+    def __init__(self, kind, params, material, center0, rotation0, center1, rotation1, velocity,
+                 angular_velocity):
+        self.kind, self.params, self.material = kind, params, material
+        self.center0, self.rotation0, self.center1, self.rotation1 = center0, rotation0, center1, rotation1
+        self.velocity, self.angular_velocity = velocity, angular_velocity

@@ -1,0 +1,133 @@
+"""The collider table: what the step kernels see of every collider in a scene.
+
+Kernels never hold Python collider objects. They loop over this table (one SoA field per
+attribute) and dispatch on `kind`. Each collider has two poses, at the start (t) and end
+(t + dt) of the current substep: interference is tested at the end pose (PHYSICS.md 3,
+moving objects), "already penetrating" at the start pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import taichi as ti
+
+from .. import runtime
+from ..geometry.colliders import Collider
+from ..materials import Material
+
+vec3 = ti.math.vec3
+
+
+@dataclass
+class ColliderEntry:
+    """A collider placed in a scene: shape, material, motion and its current pose."""
+
+    shape: Collider
+    material: Material
+    motion: object  # None (static), ConstantMotion or CallableMotion
+    center: np.ndarray
+    rotation: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+
+    @property
+    def is_kinematic(self) -> bool:
+        return self.motion is not None
+
+
+class ColliderTable:
+    def __init__(self, capacity: int = 8):
+        self.entries: list[ColliderEntry] = []
+        self.capacity = 0
+        self._allocate(capacity)
+
+    def _allocate(self, capacity):
+        self.kind = ti.ndarray(ti.i32, shape=capacity)
+        self.params = ti.Vector.ndarray(4, float, shape=capacity)
+        self.material = ti.Vector.ndarray(3, float, shape=capacity)  # restitution, friction, wet_friction
+        self.center0 = ti.Vector.ndarray(3, float, shape=capacity)
+        self.rotation0 = ti.Matrix.ndarray(3, 3, float, shape=capacity)
+        self.center1 = ti.Vector.ndarray(3, float, shape=capacity)
+        self.rotation1 = ti.Matrix.ndarray(3, 3, float, shape=capacity)
+        self.velocity = ti.Vector.ndarray(3, float, shape=capacity)
+        self.angular_velocity = ti.Vector.ndarray(3, float, shape=capacity)
+        self.capacity = capacity
+
+    def kernel_args(self):
+        """The arrays in the order `ColliderArrays` takes them."""
+        return (self.kind, self.params, self.material, self.center0, self.rotation0, self.center1,
+                self.rotation1, self.velocity, self.angular_velocity)
+
+    def __len__(self):
+        return len(self.entries)
+
+    @property
+    def has_kinematic(self) -> bool:
+        return any(e.is_kinematic for e in self.entries)
+
+    def add(self, shape: Collider, material: Material, motion, time: float) -> ColliderEntry:
+        entry = ColliderEntry(shape, material, motion, shape.center.copy(), shape.rotation.copy(),
+                              np.zeros(3), np.zeros(3))
+        if motion is not None:
+            entry.center, entry.rotation = motion.pose(shape.center, shape.rotation, time)
+            if hasattr(motion, "velocity"):
+                entry.velocity, entry.angular_velocity = motion.velocity, motion.angular_velocity
+        self.entries.append(entry)
+        if len(self.entries) > self.capacity:
+            self._allocate(2 * self.capacity)
+        self.upload_all()
+        return entry
+
+    def advance(self, t0: float, dt: float):
+        """Set the substep's start and end poses of kinematic colliders for [t0, t0 + dt]."""
+        poses0, poses1 = [], []
+        for e in self.entries:
+            if e.motion is None:
+                pose0 = pose1 = (e.center, e.rotation)
+            else:
+                pose0 = (e.center, e.rotation)
+                pose1 = e.motion.pose(e.shape.center, e.shape.rotation, t0 + dt)
+                e.velocity, e.angular_velocity = e.motion.rates(pose0, pose1, dt)
+                e.center, e.rotation = pose1
+            poses0.append(pose0)
+            poses1.append(pose1)
+        self._upload_poses(poses0, poses1)
+
+    def upload_all(self):
+        n = len(self.entries)
+        dtype = runtime.float_dtype()
+        cap = self.capacity
+        kind = np.zeros(cap, dtype=np.int32)
+        params = np.zeros((cap, 4), dtype=dtype)
+        material = np.zeros((cap, 3), dtype=dtype)
+        kind[:n] = [e.shape.kind for e in self.entries]
+        params[:n] = [e.shape.params for e in self.entries]
+        material[:n] = [(e.material.restitution, e.material.friction, e.material.wet_friction)
+                        for e in self.entries]
+        self.kind.from_numpy(kind)
+        self.params.from_numpy(params)
+        self.material.from_numpy(material)
+        poses = [(e.center, e.rotation) for e in self.entries]
+        self._upload_poses(poses, poses)
+
+    def _upload_poses(self, poses0, poses1):
+        dtype = runtime.float_dtype()
+        cap = self.capacity
+        n = len(self.entries)
+
+        def pack(values, shape):
+            arr = np.zeros((cap,) + shape, dtype=dtype)
+            arr[:n] = values
+            return arr
+
+        eye = np.broadcast_to(np.eye(3), (cap, 3, 3))
+        self.center0.from_numpy(pack([p[0] for p in poses0], (3,)))
+        self.center1.from_numpy(pack([p[0] for p in poses1], (3,)))
+        self.rotation0.from_numpy(np.where(np.arange(cap)[:, None, None] < n,
+                                           pack([p[1] for p in poses0], (3, 3)), eye).astype(dtype))
+        self.rotation1.from_numpy(np.where(np.arange(cap)[:, None, None] < n,
+                                           pack([p[1] for p in poses1], (3, 3)), eye).astype(dtype))
+        self.velocity.from_numpy(pack([e.velocity for e in self.entries], (3,)))
+        self.angular_velocity.from_numpy(pack([e.angular_velocity for e in self.entries], (3,)))

@@ -1,0 +1,80 @@
+"""The particle store: one array per quantity (structure of arrays), with a capacity that
+grows by doubling. Order is the order of `add` and never changes."""
+
+from __future__ import annotations
+
+import numpy as np
+import taichi as ti
+
+from .. import runtime
+
+ACTIVE = 0
+LEFT_DOMAIN = 1  # left the scene's domain box: frozen where it left, no longer simulated
+NON_FINITE = 2   # its state turned NaN/inf: frozen at its last finite state
+
+# Slots of the per-scene event counters.
+STAT_FAILSAFE = 0
+STAT_REPULSION = 1
+STAT_NON_FINITE = 2
+STAT_LEFT_DOMAIN = 3
+STAT_NAMES = ("failsafe", "repulsion", "non_finite", "left_domain")
+
+QUANTITIES = ("x", "v", "mass", "radius", "flags")
+
+
+class ParticleStore:
+    """Positions x (m), velocities v (m/s), mass (kg), radius (m) and a status flag."""
+
+    def __init__(self, capacity: int = 1024):
+        self.count = 0
+        self.capacity = 0
+        self.stats = ti.ndarray(ti.i32, shape=len(STAT_NAMES))
+        self.stats.fill(0)
+        self._allocate(max(int(capacity), 1))
+
+    def _allocate(self, capacity: int):
+        old = {name: self.read(name) for name in QUANTITIES} if self.count else None
+        self.x = ti.Vector.ndarray(3, float, shape=capacity)
+        self.v = ti.Vector.ndarray(3, float, shape=capacity)
+        self.mass = ti.ndarray(float, shape=capacity)
+        self.radius = ti.ndarray(float, shape=capacity)
+        self.flags = ti.ndarray(ti.i32, shape=capacity)
+        self.capacity = capacity
+        if old is not None:
+            for name, values in old.items():
+                self._write_range(name, 0, values)
+
+    def _write_range(self, name: str, start: int, values: np.ndarray):
+        array = getattr(self, name)
+        full = array.to_numpy()
+        full[start:start + len(values)] = values
+        array.from_numpy(np.ascontiguousarray(full, dtype=full.dtype))
+
+    def add(self, x, v, mass, radius) -> slice:
+        """Append validated host arrays; returns the slice of the new particles."""
+        n = len(x)
+        if self.count + n > self.capacity:
+            self._allocate(max(2 * self.capacity, self.count + n))
+        start = self.count
+        for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
+                             ("flags", np.zeros(n, dtype=np.int32))):
+            self._write_range(name, start, values)
+        self.count += n
+        return slice(start, start + n)
+
+    def read(self, name: str) -> np.ndarray:
+        return getattr(self, name).to_numpy()[: self.count].copy()
+
+    def write(self, name: str, values: np.ndarray):
+        self._write_range(name, 0, values)
+
+    def kernel_args(self):
+        """The arrays in the order `ParticleArrays` takes them."""
+        return self.x, self.v, self.mass, self.radius, self.flags, self.stats
+
+    def stat_counts(self) -> dict:
+        return dict(zip(STAT_NAMES, (int(s) for s in self.stats.to_numpy())))
+
+    @staticmethod
+    def dtype():
+        return runtime.float_dtype()

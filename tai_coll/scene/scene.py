@@ -1,0 +1,180 @@
+"""Scene assembly: particles, colliders, a solver, and the frame loop."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from .. import runtime, validate
+from ..errors import SimulationError
+from ..geometry.colliders import Collider
+from ..materials import Material
+from ..solvers.impulse import ImpulseSolver
+from . import particles as P
+from .colliders import ColliderEntry, ColliderTable
+from .motion import make_motion
+
+
+class Scene:
+    """Particles, the colliders they hit, and how contacts are resolved.
+
+    gravity: acceleration in m/s^2 applied to every particle.
+    dt: substep length in seconds (> 0). substeps: substeps per frame (>= 1); one `step()`
+        advances one frame of substeps * dt seconds.
+    solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact).
+    domain: optional ((x0, y0, z0), (x1, y1, z1)) box in m. A particle that leaves it is
+        frozen where it left and no longer simulated (see `status()`), with a warning.
+    """
+
+    def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float = 1.0 / 600.0, substeps: int = 10,
+                 solver=None, domain=None):
+        self._runtime = runtime.ensure_init()
+        self.gravity = validate.vector3("gravity", gravity)
+        self.dt = validate.real("dt", dt, low=0.0, low_open=True)
+        self.substeps = validate.integer("substeps", substeps, low=1)
+        self.solver = solver if solver is not None else ImpulseSolver()
+        if not hasattr(self.solver, "advance"):
+            raise TypeError(f"solver must be a solver such as tc.ImpulseSolver(); got {type(self.solver).__name__}")
+        self.domain = None
+        if domain is not None:
+            try:
+                lo, hi = domain
+            except (TypeError, ValueError):
+                raise ValueError("domain must be a pair (lower corner, upper corner)") from None
+            lo = validate.vector3("domain lower corner", lo)
+            hi = validate.vector3("domain upper corner", hi)
+            if np.any(hi <= lo):
+                raise ValueError(f"domain upper corner must exceed the lower one; got {lo.tolist()} and {hi.tolist()}")
+            self.domain = (lo, hi)
+        self._particles = P.ParticleStore()
+        self._colliders = ColliderTable()
+        self._substep_count = 0
+        self._reported = {name: 0 for name in P.STAT_NAMES}
+
+    # ---------------------------------------------------------------- building
+    def add_collider(self, collider: Collider, *, material: Material | None = None, velocity=None,
+                     angular_velocity=None, motion=None) -> ColliderEntry:
+        """Add a collider. Kinematic motion, if any: a constant `velocity` (m/s) and
+        `angular_velocity` (rad/s, about the collider's center), or `motion`, a callable
+        t -> (translation, rotation_matrix) applied to the collider's rest pose.
+        Returns the scene's entry for it (current pose, material, velocities)."""
+        self._check_runtime()
+        if not isinstance(collider, Collider):
+            raise TypeError(f"collider must be a tai_coll collider (Plane, Sphere, Box, ...); "
+                            f"got {type(collider).__name__}")
+        if material is None:
+            material = Material()
+        elif not isinstance(material, Material):
+            raise TypeError(f"material must be a tc.Material; got {type(material).__name__}")
+        motion = make_motion(velocity, angular_velocity, motion)
+        return self._colliders.add(collider, material, motion, self.time)
+
+    def add_particles(self, *, positions, velocities=None, mass=1.0, radius=0.005) -> slice:
+        """Add particles. positions, velocities: (N, 3) in m and m/s (velocities default 0);
+        mass (kg) and radius (m): a scalar or an (N,) array, > 0. Returns their index slice."""
+        self._check_runtime()
+        x = validate.points("positions", positions)
+        n = len(x)
+        if velocities is None:
+            v = np.zeros_like(x)
+        else:
+            v = validate.points("velocities", velocities)
+            if v.shape != x.shape:
+                raise ValueError(f"velocities must have the shape of positions {x.shape}; got {v.shape}")
+        m = validate.per_item("mass", mass, n)
+        r = validate.per_item("radius", radius, n)
+        return self._particles.add(x, v, m, r)
+
+    # ---------------------------------------------------------------- running
+    def step(self, frames: int = 1) -> None:
+        """Advance `frames` frames of `substeps` substeps of `dt` seconds."""
+        self._check_runtime()
+        frames = validate.integer("frames", frames, low=0)
+        kinematic = self._colliders.has_kinematic
+        for _ in range(frames):
+            if kinematic:
+                # Colliders move: new poses before every substep.
+                for _ in range(self.substeps):
+                    self._colliders.advance(self.time, self.dt)
+                    self.solver.advance(self, self.dt, 1)
+                    self._substep_count += 1
+            else:
+                self.solver.advance(self, self.dt, self.substeps)
+                self._substep_count += self.substeps
+            self._check_health()
+
+    def _check_health(self):
+        counts = self._particles.stat_counts()
+        if counts["non_finite"] > self._reported["non_finite"]:
+            self._reported["non_finite"] = counts["non_finite"]
+            bad = np.flatnonzero(self.status() == "non_finite")
+            raise SimulationError(
+                f"{bad.size} particle(s) turned NaN or inf and were frozen at their last finite state "
+                f"(indices {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}) at t = {self.time:.6g} s. "
+                f"Check their velocities and the colliders' motion; a smaller dt (now {self.dt:g} s) may help.")
+        if counts["left_domain"] > self._reported["left_domain"]:
+            new = counts["left_domain"] - self._reported["left_domain"]
+            self._reported["left_domain"] = counts["left_domain"]
+            warnings.warn(f"{new} particle(s) left the domain by t = {self.time:.6g} s and were frozen "
+                          f"({counts['left_domain']} in all); see Scene.status()", RuntimeWarning, stacklevel=3)
+
+    # ---------------------------------------------------------------- reading
+    @property
+    def time(self) -> float:
+        """Seconds simulated."""
+        return self._substep_count * self.dt
+
+    @property
+    def frame_time(self) -> float:
+        """Seconds per frame: substeps * dt."""
+        return self.substeps * self.dt
+
+    @property
+    def num_particles(self) -> int:
+        return self._particles.count
+
+    @property
+    def colliders(self) -> list[ColliderEntry]:
+        return list(self._colliders.entries)
+
+    def positions(self) -> np.ndarray:
+        """(N, 3) copy of the particle centers, in the order they were added."""
+        return self._particles.read("x")
+
+    def velocities(self) -> np.ndarray:
+        return self._particles.read("v")
+
+    def masses(self) -> np.ndarray:
+        return self._particles.read("mass")
+
+    def radii(self) -> np.ndarray:
+        return self._particles.read("radius")
+
+    def status(self) -> np.ndarray:
+        """Per particle: "active", "left_domain" or "non_finite"."""
+        names = np.array(["active", "left_domain", "non_finite"])
+        return names[self._particles.read("flags")]
+
+    def stats(self) -> dict:
+        """Counts since the scene was built: failsafe and repulsion events, particles frozen."""
+        return self._particles.stat_counts()
+
+    def set_velocities(self, velocities) -> None:
+        v = validate.points("velocities", velocities)
+        if v.shape != (self.num_particles, 3):
+            raise ValueError(f"velocities must have shape ({self.num_particles}, 3); got {v.shape}")
+        self._particles.write("v", v)
+
+    def set_positions(self, positions) -> None:
+        x = validate.points("positions", positions)
+        if x.shape != (self.num_particles, 3):
+            raise ValueError(f"positions must have shape ({self.num_particles}, 3); got {x.shape}")
+        self._particles.write("x", x)
+
+    def _check_runtime(self):
+        runtime.check_generation(self._runtime.generation, "this Scene")
+
+    def __repr__(self):
+        return (f"Scene({self.num_particles} particles, {len(self._colliders)} colliders, dt={self.dt:g}, "
+                f"substeps={self.substeps}, solver={self.solver!r}, t={self.time:.4g} s)")

@@ -1,0 +1,136 @@
+"""Contact detection of one particle against the collider table (PHYSICS.md 1 and 3).
+
+Given the particle's start x0 (time t) and candidate x1 (time t + dt), report the collider
+that matters most: the deepest interference at x1, else the earliest trajectory crossing of
+x0 -> x1 (continuous detection, so a fast particle cannot tunnel through a thin shape).
+Interference is tested against each collider's pose at t + dt. Colliders the particle was
+already inside at time t (beyond the slop) are skipped: the last-resort repulsion owns them.
+
+Each function evaluates the SDF at one call site inside a loop: Taichi inlines every
+@ti.func call, and each call of `world_sdf` carries all five shapes into the kernel.
+"""
+
+import taichi as ti
+
+from ..geometry.crossing import world_crossing
+from ..geometry.sdf import world_sdf
+
+vec3 = ti.math.vec3
+
+# Relative size of a normal velocity component that counts as round-off, not approach.
+APPROACH_EPS = 1e-6
+
+
+@ti.func
+def surface_velocity(c: ti.template(), ci, point: vec3) -> vec3:
+    """Velocity of the collider's surface at `point`: v + w x (point - center)."""
+    return c.velocity[ci] + c.angular_velocity[ci].cross(point - c.center1[ci])
+
+
+@ti.func
+def collider_sdf(c: ti.template(), ci, x: vec3, end_pose: bool):
+    """phi and normal at x with the collider at the substep's end pose (or start pose)."""
+    center = c.center0[ci]
+    rotation = c.rotation0[ci]
+    if end_pose:
+        center = c.center1[ci]
+        rotation = c.rotation1[ci]
+    return world_sdf(c.kind[ci], c.params[ci], center, rotation, x)
+
+
+@ti.func
+def approaching(v_rel: vec3, n: vec3) -> bool:
+    """Relative normal velocity below zero, beyond round-off of the velocity itself."""
+    return v_rel.dot(n) < -APPROACH_EPS * v_rel.norm()
+
+
+@ti.func
+def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
+    """Returns (collider index or -1, outward normal, surface velocity at the contact).
+
+    A contact counts when `v` approaches it and
+    - x1 interferes (phi(x1) < r) and lies deeper than x0 did: a particle resting within the
+      slop band keeps its depth and is not processed again (on curved shapes a pass cannot
+      get it out of a band it started in);
+    - or, x0 and x1 both clear, the segment crosses the shape (continuous detection).
+    x0 deeper than the slop at time t: skipped, the last-resort repulsion owns it.
+    """
+    length = (x1 - x0).norm()
+    deepest = -1
+    deepest_gap = 0.0
+    first_t = 2.0
+    found = -1
+    found_n = vec3(0.0, 1.0, 0.0)
+    found_vs = vec3(0.0, 0.0, 0.0)
+    for ci in range(n_colliders):
+        # k = 0: x1 against the end pose; k = 1: x0 against the start pose, only if needed.
+        gap1 = 0.0
+        n1 = vec3(0.0, 1.0, 0.0)
+        candidate = False
+        crossing = False
+        for k in range(2):
+            phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
+            if k == 0:
+                gap1, n1 = phi - r, n
+                if gap1 < 0.0:
+                    candidate = gap1 < deepest_gap  # interference, deeper than the best so far
+                else:
+                    # Clear at x1; the segment may still cross (phi is 1-Lipschitz: cull first).
+                    candidate = deepest < 0 and gap1 < length
+                    crossing = candidate
+                if not candidate:
+                    break
+            else:
+                gap0 = phi - r
+                if crossing:
+                    candidate = gap0 >= 0.0
+                else:
+                    candidate = gap0 >= -slop and gap1 < ti.min(gap0, 0.0)
+        if candidate and crossing:
+            hit, t, n = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], x0, x1, r)
+            if hit and t < first_t:
+                vs = surface_velocity(c, ci, x0 + t * (x1 - x0) - r * n)
+                if approaching(v - vs, n):
+                    found, first_t, found_n, found_vs = ci, t, n, vs
+        elif candidate:
+            vs = surface_velocity(c, ci, x1 - (gap1 + r) * n1)
+            if approaching(v - vs, n1):
+                deepest, deepest_gap = ci, gap1
+                found, found_n, found_vs = ci, n1, vs
+    return found, found_n, found_vs
+
+
+@ti.func
+def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
+    """If x0 was inside collider ci at time t (beyond the slop), return (True, depth, normal,
+    contact point) measured against the end pose; else (False, ...)."""
+    inside = False
+    phi = 0.0
+    n = vec3(0.0, 1.0, 0.0)
+    for k in range(2):
+        phi, n = collider_sdf(c, ci, x0, k == 1)
+        if k == 0:
+            inside = phi < r - slop
+            if not inside:
+                break
+    return inside, r - phi, n, x0 - phi * n
+
+
+@ti.func
+def earliest_approach(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
+    """For the exact-time scheme: the first collider the straight path x0 -> x1 touches while
+    approaching it. Returns (collider or -1, fraction t, normal, surface velocity)."""
+    found = -1
+    first_t = 2.0
+    first_n = vec3(0.0, 1.0, 0.0)
+    first_vs = vec3(0.0, 0.0, 0.0)
+    length = (x1 - x0).norm()
+    for ci in range(n_colliders):
+        phi, n0 = collider_sdf(c, ci, x0, True)
+        if phi - r < length + slop and phi >= r - slop:
+            hit, t, n = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], x0, x1, r)
+            if hit and t < first_t:
+                vs = surface_velocity(c, ci, x0 + t * (x1 - x0) - r * n)
+                if approaching(v - vs, n):
+                    found, first_t, first_n, first_vs = ci, t, n, vs
+    return found, first_t, first_n, first_vs

@@ -1,0 +1,261 @@
+"""Impulse-based contact resolution: PHYSICS.md 3, the ways of putting collisions into time
+integration. Each particle is resolved independently (in parallel) against the colliders.
+
+One substep of one particle reads as: integrate without collisions to a candidate (x1, v1);
+accept penetrations that were already there at time t and push out with the last-resort
+repulsion; then resolve the candidate with the chosen scheme:
+
+- "simple"          Implementation 1: one pass of the law on the average velocity.
+- "micro"           Implementation 2: repeat while x1 interferes, e = 0 after the first pass.
+- "elastic_contact" Implementation 3 (default): the elastic law on v(t), then inelastic
+                    contact passes on the average velocity. Solves the bouncing-block problem.
+- "exact_time"      Backing up time: advance to each first contact along the straight path,
+                    apply the law there, continue for the rest of the substep. Closed form for
+                    planes and spheres, root finding for the other shapes.
+
+Loops are capped; a particle still interfering after the cap gets the failsafe: it stops
+relative to the collider (v = surface velocity, x1 = x + dt v).
+"""
+
+
+import numpy as np
+import taichi as ti
+
+from .. import validate
+from ..response.collide import WET_LAWS
+from ..response.laws import repel, respond
+from ..scene import particles as P
+from .detection import detect, earliest_approach, start_penetration, surface_velocity
+from .integrate import store, symplectic_euler
+from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
+
+vec3 = ti.math.vec3
+
+SIMPLE = 0
+MICRO = 1
+ELASTIC_CONTACT = 2
+EXACT_TIME = 3
+SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT, "exact_time": EXACT_TIME}
+
+
+@ti.func
+def apply_law(c: ti.template(), ci, v: vec3, n: vec3, vs: vec3, restitution, wet_law: ti.template()):
+    """PHYSICS.md 2 on the velocity relative to the collider's surface, with its material."""
+    m = c.material[ci]
+    v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
+    return vs + v_rel
+
+
+@ti.func
+def repel_start_penetrations(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, x1: vec3,
+                             v1: vec3, r, slop, dt, repulsion, speed_limit):
+    """Last resort (PHYSICS.md 3): for a collider the particle was already inside at time t,
+    accept the penetration and raise the normal velocity to repulsion * depth / dt."""
+    for ci in range(n_colliders):
+        inside, depth, n, point = start_penetration(c, ci, x0, r, slop)
+        if inside and depth > 0.0:
+            vs = surface_velocity(c, ci, point)
+            target = ti.min(repulsion * depth / dt, speed_limit)
+            v1 = vs + repel(v1 - vs, n, target, c.material[ci][1])
+            x1 = x0 + dt * v1
+            ti.atomic_add(p.stats[P.STAT_REPULSION], 1)
+    return x1, v1
+
+
+@ti.func
+def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, v0: vec3, x1: vec3,
+                   v1: vec3, r, slop, dt, elastic_passes, contact_passes,
+                   first_contact_elastic: ti.template(), failsafe: ti.template(), wet_law: ti.template()):
+    """The simple, micro-collision and elastic-then-contact schemes as one loop.
+
+    Elastic passes (Implementation 3): the law with restitution on the start velocity v(t);
+    its change is added to the candidate (x1 += dt dv, v1 += dv).
+    Contact passes: the law on the average velocity v_avg = (x1 - x0)/dt, then
+    x1 = x0 + dt v_new. Restitution only on the first contact pass when
+    first_contact_elastic (Implementations 1 and 2), e = 0 otherwise, so the loop ends.
+    If contacts remain after the cap: the failsafe stops the particle relative to the collider.
+    One call of `detect` serves every pass, which keeps the kernel small.
+    """
+    v_start = v0
+    elastic_left = elastic_passes
+    contact_done = 0
+    resolved = False
+    last_vs = vec3(0.0, 0.0, 0.0)
+    for _ in range(elastic_passes + contact_passes + 1):
+        v_test = v_start
+        if elastic_left == 0:
+            v_test = (x1 - x0) / dt
+        ci, n, vs = detect(c, n_colliders, x0, x1, v_test, r, slop)
+        if ci < 0:
+            if elastic_left > 0:
+                elastic_left = 0  # nothing more to bounce off: on to contact
+                continue
+            resolved = True
+            break
+        last_vs = vs
+        restitution = c.material[ci][0]
+        if elastic_left > 0:
+            elastic_left -= 1
+            v_new = apply_law(c, ci, v_start, n, vs, restitution, wet_law)
+            dv = v_new - v_start
+            v_start = v_new
+            v1 += dv
+            x1 += dt * dv
+        else:
+            if contact_done == contact_passes:
+                break
+            if ti.static(not first_contact_elastic):
+                restitution = 0.0
+            elif contact_done > 0:
+                restitution = 0.0
+            v1 = apply_law(c, ci, v_test, n, vs, restitution, wet_law)
+            x1 = x0 + dt * v1
+            contact_done += 1
+    if ti.static(failsafe):
+        if not resolved:
+            # Failsafe (PHYSICS.md 3): stop relative to the collider.
+            v1 = last_vs
+            x1 = x0 + dt * last_vs
+            ti.atomic_add(p.stats[P.STAT_FAILSAFE], 1)
+    return x1, v1
+
+
+@ti.func
+def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, v1: vec3, r, slop,
+                       dt, max_iterations, rest_speed, wet_law: ti.template()):
+    """Backing up time: move along the straight path to the first contact, apply the law
+    there, go on for the remaining time. Approach speeds below rest_speed get e = 0, so a
+    resting particle does not bounce on the velocity gravity gave it this substep."""
+    x = x0
+    v = v1
+    remaining = dt
+    done = False
+    last_vs = vec3(0.0, 0.0, 0.0)
+    for _ in range(max_iterations):
+        x_end = x + remaining * v
+        ci, t, n, vs = earliest_approach(c, n_colliders, x, x_end, v, r, slop)
+        if ci < 0:
+            x = x_end
+            done = True
+            break
+        x = x + t * remaining * v
+        restitution = 0.0
+        if -(v - vs).dot(n) > rest_speed:
+            restitution = c.material[ci][0]
+        v = apply_law(c, ci, v, n, vs, restitution, wet_law)
+        remaining *= 1.0 - t
+        last_vs = vs
+    if not done:
+        x = x + remaining * last_vs
+        ti.atomic_add(p.stats[P.STAT_FAILSAFE], 1)
+    return x, v
+
+
+@ti.kernel
+def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(), flags: scalars(ti.i32),
+                    stats: scalars(ti.i32),
+                    kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
+                    rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
+                    angular_velocity: vectors(),
+                    n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
+                    scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
+                    elastic_iterations: ti.i32, repulsion: float, repulsion_speed_limit: float,
+                    slop_fraction: float, rest_speed: float,
+                    use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
+    # Particles are independent of each other here, so with colliders that hold still during
+    # the call, one launch runs several substeps and keeps each particle in registers.
+    for i in range(n_particles):
+        for _ in range(n_substeps):
+            substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
+                             ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1,
+                                            velocity, angular_velocity),
+                             i, n_colliders, gravity, dt, scheme, wet_law, max_iterations, elastic_iterations,
+                             repulsion, repulsion_speed_limit, slop_fraction, rest_speed, use_domain,
+                             domain_lo, domain_hi)
+
+
+@ti.func
+def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity: vec3, dt,
+                     scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
+                     repulsion, repulsion_speed_limit, slop_fraction, rest_speed, use_domain: ti.template(),
+                     domain_lo: vec3, domain_hi: vec3):
+    if p.flags[i] == P.ACTIVE:
+        # gather
+        x0 = p.x[i]
+        v0 = p.v[i]
+        r = p.radius[i]
+        slop = slop_fraction * r
+        # integrate without collisions
+        x1, v1 = symplectic_euler(x0, v0, gravity, dt)
+        # query and respond
+        if ti.static(scheme != SIMPLE):
+            x1, v1 = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
+                                              repulsion_speed_limit)
+        if ti.static(scheme == SIMPLE):
+            x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, 0, 1, True, False,
+                                    wet_law)
+        elif ti.static(scheme == MICRO):
+            x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, 0, max_iterations,
+                                    True, True, wet_law)
+        elif ti.static(scheme == ELASTIC_CONTACT):
+            x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, elastic_iterations,
+                                    max_iterations, False, True, wet_law)
+        else:
+            x1, v1 = resolve_exact_time(p, c, n_colliders, x0, v1, r, slop, dt, max_iterations,
+                                        rest_speed, wet_law)
+        # scatter
+        store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
+
+
+class ImpulseSolver:
+    """Resolve particle-collider contacts with impulses (PHYSICS.md 2 and 3).
+
+    scheme: "elastic_contact" (default, Implementation 3), "micro" (Implementation 2),
+        "simple" (Implementation 1, kept for comparison: it fails for resting contact) or
+        "exact_time" (backing up time; exact for planes and spheres).
+    max_iterations: cap on the contact passes (and on events per substep for exact_time)
+        before the failsafe. More passes resolve corners better and cost time in contact.
+    elastic_iterations: how many times the elastic pass of Implementation 3 may repeat
+        while the candidate still interferes.
+    repulsion: the last resort for a particle already inside a collider at the start of a
+        substep: its normal velocity is raised to repulsion * depth / dt, i.e. this fraction of
+        the depth is recovered per substep. Capped at repulsion_speed_limit (m/s).
+    slop: penetration, as a fraction of the particle radius, below which a particle still
+        counts as outside (absorbs round-off at resting contacts).
+    rest_speed: exact_time only: approach speeds (m/s) below this get e = 0. None: twice the
+        speed gravity adds in one substep.
+    wet_law: "linear" max(0, 1 - D dv_N) or "exponential" exp(-D dv_N) (seed 001).
+    """
+
+    def __init__(self, *, scheme: str = "elastic_contact", max_iterations: int = 8,
+                 elastic_iterations: int = 1, repulsion: float = 0.1, repulsion_speed_limit: float = 1.0,
+                 slop: float = 1e-3, rest_speed: float | None = None, wet_law: str = "linear"):
+        if scheme not in SCHEMES:
+            raise ValueError(f"scheme must be one of {tuple(SCHEMES)}; got {scheme!r}")
+        if wet_law not in WET_LAWS:
+            raise ValueError(f"wet_law must be one of {tuple(WET_LAWS)}; got {wet_law!r}")
+        self.scheme = scheme
+        self.max_iterations = validate.integer("max_iterations", max_iterations, low=1)
+        self.elastic_iterations = validate.integer("elastic_iterations", elastic_iterations, low=0)
+        self.repulsion = validate.real("repulsion", repulsion, low=0.0, high=1.0, low_open=True)
+        self.repulsion_speed_limit = validate.real("repulsion_speed_limit", repulsion_speed_limit,
+                                                   low=0.0, low_open=True)
+        self.slop = validate.real("slop", slop, low=0.0, high=0.5)
+        self.rest_speed = validate.real("rest_speed", rest_speed, low=0.0, allow_none=True)
+        self.wet_law = wet_law
+
+    def __repr__(self):
+        return f"ImpulseSolver(scheme={self.scheme!r}, max_iterations={self.max_iterations})"
+
+    def advance(self, scene, dt: float, substeps: int = 1):
+        """Advance every active particle of `scene` by `substeps` substeps of dt against its
+        colliders, which must keep their current poses for the whole call."""
+        gravity = scene.gravity
+        rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(gravity)) * dt
+        lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
+        impulse_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(),
+                        scene._particles.count, len(scene._colliders), substeps,
+                        vec3(*gravity), dt, SCHEMES[self.scheme], WET_LAWS[self.wet_law],
+                        self.max_iterations, self.elastic_iterations, self.repulsion,
+                        self.repulsion_speed_limit, self.slop, rest_speed,
+                        scene.domain is not None, vec3(*lo), vec3(*hi))
