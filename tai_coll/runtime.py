@@ -8,6 +8,7 @@ scenes built before then refuse to run (their fields belong to the old runtime).
 
 from __future__ import annotations
 
+import ctypes
 import numbers
 import platform
 from dataclasses import dataclass
@@ -57,6 +58,18 @@ def _check_init_args(arch, precision, threads, seed):
         raise ValueError(f"precision='f64' is not supported on arch={arch!r}; use 'f32'")
 
 
+def _cuda_driver_present() -> bool:
+    """Whether the CUDA driver library loads, checked without Taichi's fallback warnings."""
+    names = {"Linux": ["libcuda.so.1", "libcuda.so"], "Windows": ["nvcuda.dll"]}.get(platform.system(), [])
+    for name in names:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
 def _arch_name(arch) -> str:
     return {ti.x64: "cpu", ti.arm64: "cpu", ti.cuda: "cuda", ti.vulkan: "vulkan",
             ti.metal: "metal", ti.opengl: "opengl"}.get(arch, str(arch))
@@ -74,10 +87,14 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
         # A GPU when one is usable: CUDA, or Metal on a Mac. Vulkan is not tried here, since
         # on a machine without a GPU it would pick a software rasteriser (lavapipe), slower
         # than Taichi's own CPU backend and without f64.
-        candidates = [ti.cuda] + ([ti.metal] if platform.system() == "Darwin" and precision == "f32" else [])
-        ti.init(arch=candidates, **common)
-        if _arch_name(ti.lang.impl.current_cfg().arch) == "cpu" and threads is not None:
-            ti.reset()
+        candidates = [ti.cuda] if _cuda_driver_present() else []
+        if platform.system() == "Darwin" and precision == "f32":
+            candidates.append(ti.metal)
+        if candidates:
+            ti.init(arch=candidates, **common)
+        if not candidates or (_arch_name(ti.lang.impl.current_cfg().arch) == "cpu" and threads is not None):
+            if candidates:
+                ti.reset()
             ti.init(**cpu)
     else:
         target = {"gpu": ti.gpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}[arch]

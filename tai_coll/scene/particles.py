@@ -28,8 +28,11 @@ class ParticleStore:
     def __init__(self, capacity: int = 1024):
         self.count = 0
         self.capacity = 0
+        # Kernels count events in a small i32 array; `collect_stats` drains it into Python
+        # integers after every frame, so long runs of many particles cannot overflow it.
         self.stats = ti.ndarray(ti.i32, shape=len(STAT_NAMES))
         self.stats.fill(0)
+        self.totals = dict.fromkeys(STAT_NAMES, 0)
         self._allocate(max(int(capacity), 1))
 
     def _allocate(self, capacity: int):
@@ -72,8 +75,14 @@ class ParticleStore:
         """The arrays in the order `ParticleArrays` takes them."""
         return self.x, self.v, self.mass, self.radius, self.flags, self.stats
 
-    def stat_counts(self) -> dict:
-        return dict(zip(STAT_NAMES, (int(s) for s in self.stats.to_numpy())))
+    def collect_stats(self) -> dict:
+        """Move the kernels' event counts into `totals`; returns the counts just collected."""
+        fresh = dict(zip(STAT_NAMES, (int(s) for s in self.stats.to_numpy())))
+        if any(fresh.values()):
+            self.stats.fill(0)
+            for name, count in fresh.items():
+                self.totals[name] += count
+        return fresh
 
     @staticmethod
     def dtype():

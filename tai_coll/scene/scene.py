@@ -50,7 +50,6 @@ class Scene:
         self._particles = P.ParticleStore()
         self._colliders = ColliderTable()
         self._substep_count = 0
-        self._reported = {name: 0 for name in P.STAT_NAMES}
 
     # ---------------------------------------------------------------- building
     def add_collider(self, collider: Collider, *, material: Material | None = None, velocity=None,
@@ -105,19 +104,18 @@ class Scene:
             self._check_health()
 
     def _check_health(self):
-        counts = self._particles.stat_counts()
-        if counts["non_finite"] > self._reported["non_finite"]:
-            self._reported["non_finite"] = counts["non_finite"]
+        fresh = self._particles.collect_stats()
+        totals = self._particles.totals
+        if fresh["non_finite"]:
             bad = np.flatnonzero(self.status() == "non_finite")
             raise SimulationError(
-                f"{bad.size} particle(s) turned NaN or inf and were frozen at their last finite state "
-                f"(indices {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}) at t = {self.time:.6g} s. "
+                f"{fresh['non_finite']} particle(s) turned NaN or inf and were frozen at their last finite "
+                f"state (indices {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}) at t = {self.time:.6g} s. "
                 f"Check their velocities and the colliders' motion; a smaller dt (now {self.dt:g} s) may help.")
-        if counts["left_domain"] > self._reported["left_domain"]:
-            new = counts["left_domain"] - self._reported["left_domain"]
-            self._reported["left_domain"] = counts["left_domain"]
-            warnings.warn(f"{new} particle(s) left the domain by t = {self.time:.6g} s and were frozen "
-                          f"({counts['left_domain']} in all); see Scene.status()", RuntimeWarning, stacklevel=3)
+        if fresh["left_domain"]:
+            warnings.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
+                          f"frozen ({totals['left_domain']} in all); see Scene.status()", RuntimeWarning,
+                          stacklevel=3)
 
     # ---------------------------------------------------------------- reading
     @property
@@ -158,7 +156,7 @@ class Scene:
 
     def stats(self) -> dict:
         """Counts since the scene was built: failsafe and repulsion events, particles frozen."""
-        return self._particles.stat_counts()
+        return dict(self._particles.totals)
 
     def set_velocities(self, velocities) -> None:
         v = validate.points("velocities", velocities)

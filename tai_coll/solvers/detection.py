@@ -48,55 +48,55 @@ def approaching(v_rel: vec3, n: vec3) -> bool:
 def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
     """Returns (collider index or -1, outward normal, surface velocity at the contact).
 
-    A contact counts when `v` approaches it and
-    - x1 interferes (phi(x1) < r) and lies deeper than x0 did: a particle resting within the
-      slop band keeps its depth and is not processed again (on curved shapes a pass cannot
-      get it out of a band it started in);
-    - or, x0 and x1 both clear, the segment crosses the shape (continuous detection).
-    x0 deeper than the slop at time t: skipped, the last-resort repulsion owns it.
+    A collider is a candidate when
+    - x1 interferes (phi(x1) < r) and lies deeper than x0 did: a particle resting or sliding
+      within the slop band keeps its depth and is not processed again;
+    - or x1 is clear but the segment x0 -> x1 crosses the shape (continuous detection).
+    Its contact is where the segment first touches: x0 itself for a particle already in the
+    band (normal at x0), else the crossing point (PHYSICS.md 1). That normal, not the one at
+    the deepest point x1, is what keeps a sliding particle on a curved surface and gives the
+    right face at a box edge. Among candidates that `v` approaches, the earliest contact wins
+    (ties: the deepest x1). x0 deeper than the slop: skipped, the last-resort repulsion owns it.
     """
     length = (x1 - x0).norm()
-    deepest = -1
-    deepest_gap = 0.0
-    first_t = 2.0
+    best_t = 2.0
+    best_gap = 0.0
     found = -1
     found_n = vec3(0.0, 1.0, 0.0)
     found_vs = vec3(0.0, 0.0, 0.0)
     for ci in range(n_colliders):
         # k = 0: x1 against the end pose; k = 1: x0 against the start pose, only if needed.
         gap1 = 0.0
-        n1 = vec3(0.0, 1.0, 0.0)
+        gap0 = 0.0
+        n0 = vec3(0.0, 1.0, 0.0)
         candidate = False
-        crossing = False
         for k in range(2):
             phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
             if k == 0:
-                gap1, n1 = phi - r, n
-                if gap1 < 0.0:
-                    candidate = gap1 < deepest_gap  # interference, deeper than the best so far
-                else:
-                    # Clear at x1; the segment may still cross (phi is 1-Lipschitz: cull first).
-                    candidate = deepest < 0 and gap1 < length
-                    crossing = candidate
+                gap1 = phi - r
+                # Interference, or a clear end that the segment may still reach (phi is
+                # 1-Lipschitz, so a gap beyond the segment's length rules a crossing out).
+                candidate = gap1 < length
                 if not candidate:
                     break
             else:
-                gap0 = phi - r
-                if crossing:
-                    candidate = gap0 >= 0.0
-                else:
+                gap0, n0 = phi - r, n
+                if gap1 < 0.0:
                     candidate = gap0 >= -slop and gap1 < ti.min(gap0, 0.0)
-        if candidate and crossing:
-            hit, t, n = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], x0, x1, r)
-            if hit and t < first_t:
+                else:
+                    candidate = gap0 >= 0.0
+        if candidate:
+            t = 0.0
+            n = n0
+            if gap0 >= 0.0:
+                hit, t_hit, n_hit = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci],
+                                                   x0, x1, r)
+                candidate = hit
+                t, n = t_hit, n_hit
+            if candidate and (t < best_t or (t == best_t and gap1 < best_gap)):
                 vs = surface_velocity(c, ci, x0 + t * (x1 - x0) - r * n)
                 if approaching(v - vs, n):
-                    found, first_t, found_n, found_vs = ci, t, n, vs
-        elif candidate:
-            vs = surface_velocity(c, ci, x1 - (gap1 + r) * n1)
-            if approaching(v - vs, n1):
-                deepest, deepest_gap = ci, gap1
-                found, found_n, found_vs = ci, n1, vs
+                    found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n, vs
     return found, found_n, found_vs
 
 

@@ -1,0 +1,33 @@
+"""tc.init: idempotent with the same arguments, and the arch/precision it reports."""
+
+import numpy as np
+
+import tai_coll as tc
+from tai_coll import runtime
+
+
+def test_init_twice_with_same_arguments_is_harmless():
+    first = runtime.info()
+    scene = tc.Scene()
+    scene.add_particles(positions=[[0.0, 1.0, 0.0]])
+    again = tc.init(arch="cpu", precision="f64", threads=2, seed=0)
+    assert again is first
+    scene.step()  # the scene built before the second call still runs
+    assert scene.time > 0
+
+
+def test_session_runs_on_cpu_in_f64():
+    info = runtime.info()
+    assert info.arch == "cpu" and info.precision == "f64" and info.threads == 2
+    assert runtime.float_dtype() is np.float64
+    # f64 really reaches the kernels: a distance that f32 would round.
+    x = 1.0 + 1e-12
+    phi = tc.Plane(point=(0.0, 1.0, 0.0), normal=(0.0, 1.0, 0.0)).signed_distance([[0.0, x, 0.0]])
+    assert abs(phi[0] - 1e-12) < 1e-15
+
+
+def test_stale_generation_is_refused():
+    import pytest
+
+    with pytest.raises(RuntimeError, match="restarted Taichi"):
+        runtime.check_generation(runtime.info().generation - 1, "this Scene")
