@@ -6,7 +6,6 @@ attribute) and dispatch on `kind`. Each collider has two poses, at the start (t)
 moving objects), "already penetrating" at the start pose.
 """
 
-from __future__ import annotations
 
 from dataclasses import dataclass
 
@@ -113,21 +112,36 @@ class ColliderTable:
         self._upload_poses(poses, poses)
 
     def _upload_poses(self, poses0, poses1):
-        dtype = runtime.float_dtype()
-        cap = self.capacity
+        """One packed host array and one small kernel: this runs every substep of a scene
+        with moving colliders, where six separate transfers cost more than the step."""
         n = len(self.entries)
+        if n == 0:
+            return
+        packed = np.empty((n, POSE_WIDTH), dtype=runtime.float_dtype())
+        for i, (e, (c0, R0), (c1, R1)) in enumerate(zip(self.entries, poses0, poses1)):
+            packed[i, 0:3] = c0
+            packed[i, 3:12] = R0.ravel()
+            packed[i, 12:15] = c1
+            packed[i, 15:24] = R1.ravel()
+            packed[i, 24:27] = e.velocity
+            packed[i, 27:30] = e.angular_velocity
+        _scatter_poses(packed, self.center0, self.rotation0, self.center1, self.rotation1, self.velocity,
+                       self.angular_velocity)
 
-        def pack(values, shape):
-            arr = np.zeros((cap,) + shape, dtype=dtype)
-            arr[:n] = values
-            return arr
 
-        eye = np.broadcast_to(np.eye(3), (cap, 3, 3))
-        self.center0.from_numpy(pack([p[0] for p in poses0], (3,)))
-        self.center1.from_numpy(pack([p[0] for p in poses1], (3,)))
-        self.rotation0.from_numpy(np.where(np.arange(cap)[:, None, None] < n,
-                                           pack([p[1] for p in poses0], (3, 3)), eye).astype(dtype))
-        self.rotation1.from_numpy(np.where(np.arange(cap)[:, None, None] < n,
-                                           pack([p[1] for p in poses1], (3, 3)), eye).astype(dtype))
-        self.velocity.from_numpy(pack([e.velocity for e in self.entries], (3,)))
-        self.angular_velocity.from_numpy(pack([e.angular_velocity for e in self.entries], (3,)))
+POSE_WIDTH = 30
+
+
+@ti.kernel
+def _scatter_poses(packed: ti.types.ndarray(), center0: ti.types.ndarray(), rotation0: ti.types.ndarray(),
+                   center1: ti.types.ndarray(), rotation1: ti.types.ndarray(), velocity: ti.types.ndarray(),
+                   angular_velocity: ti.types.ndarray()):
+    for i in range(packed.shape[0]):
+        for a in ti.static(range(3)):
+            center0[i][a] = packed[i, a]
+            center1[i][a] = packed[i, 12 + a]
+            velocity[i][a] = packed[i, 24 + a]
+            angular_velocity[i][a] = packed[i, 27 + a]
+            for b in ti.static(range(3)):
+                rotation0[i][a, b] = packed[i, 3 + 3 * a + b]
+                rotation1[i][a, b] = packed[i, 15 + 3 * a + b]
