@@ -16,7 +16,11 @@ from .sdf import local_sdf, vec3, vec4
 # Conservative advancement: iteration cap, and how close (relative to the particle
 # radius, or absolutely for points) counts as touching.
 ADVANCE_ITERATIONS = 48
-BISECT_ITERATIONS = 30
+SEARCH_ITERATIONS = 48
+BISECT_ITERATIONS = 40
+ADVANCE = 0
+SEARCH = 1
+BISECT = 2
 TOUCH_REL = 1e-4
 TOUCH_ABS = 1e-7
 
@@ -63,11 +67,16 @@ def sphere_crossing(x0: vec3, x1: vec3, radius, r):
 
 @ti.func
 def advance_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
-    """Conservative advancement along x0 -> x1 against phi = r; bisection if it runs out of
-    patience on a grazing path and the end point turns out to be inside.
+    """First t with phi(x0 + t d) = r for the convex shapes (box, cylinder, capsule).
 
-    Written as one loop around one SDF evaluation: every call site of `local_sdf` inlines
-    all five shapes, and kernel compile time grows with their number.
+    Three phases around one SDF evaluation per iteration (each call site of `local_sdf`
+    inlines all five shapes, and kernel compile time grows with their number):
+    - advance: step t by (phi - r) / |d|, which never steps over the surface. Along a line
+      phi is convex, so once its slope n . d turns non-negative while still clear, the
+      segment can never touch: stop.
+    - minimum search, when advancing runs out of patience on a grazing path: bisect on the
+      sign of the slope toward the minimum of phi; clear at the minimum means a miss.
+    - root bisection, between the last clear point and the first point found inside.
     """
     d = x1 - x0
     length = d.norm()
@@ -75,40 +84,57 @@ def advance_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
     hit = False
     t = 1.0
     n = vec3(0.0, 1.0, 0.0)
-    bisecting = False
+    phase = ADVANCE
     lo = 0.0  # last parameter known to be clear
-    hi = 1.0
+    hi = 1.0  # advance/bisect: first known inside; search: right end of the bracket
     s = 0.0   # parameter evaluated this iteration
-    for it in range(ADVANCE_ITERATIONS + BISECT_ITERATIONS):
+    for it in range(ADVANCE_ITERATIONS + SEARCH_ITERATIONS + BISECT_ITERATIONS):
         gap, n_s = local_sdf(kind, x0 + s * d, params)
         gap -= r
-        if not bisecting:
-            if gap < 0.0:
-                if s == 0.0:
-                    hit, t, n = True, 0.0, n_s  # starts in contact
-                    break
-                bisecting = True  # only the end-point check lands inside
-                hi = s
-                s = 0.5 * (lo + hi)
-            elif gap <= tol:
-                hit, t, n = True, s, n_s
-                break
-            else:
-                lo = s
-                s_next = s + gap / ti.max(length, 1e-30)
-                if s >= 1.0 or s_next >= 1.0:
-                    break  # the rest of the segment lies inside a clear ball
-                s = s_next
-                if it >= ADVANCE_ITERATIONS - 1:
-                    s = 1.0  # out of patience: the end point decides
-        else:
+        slope = n_s.dot(d)
+        if phase == BISECT:
             n = n_s
             if gap < 0.0:
                 hi = s
             else:
                 lo = s
+            if hi - lo <= 1e-12:
+                break
             s = 0.5 * (lo + hi)
-    if bisecting:
+        elif gap < 0.0:
+            if s == 0.0:
+                hit, t, n = True, 0.0, n_s  # starts in contact
+                break
+            phase = BISECT
+            hi = s
+            s = 0.5 * (lo + hi)
+        elif gap <= tol:
+            hit, t, n = True, s, n_s
+            break
+        elif slope >= 0.0 or length == 0.0:
+            if phase == ADVANCE:
+                break  # clear and moving away from a convex shape: no contact ahead
+            hi = s  # search: the minimum lies to the left
+            if hi - lo <= 1e-12:
+                break
+            s = 0.5 * (lo + hi)
+        elif phase == ADVANCE:
+            lo = s
+            s_next = s + gap / length
+            if s_next >= 1.0:
+                break  # the rest of the segment lies inside a clear ball
+            s = s_next
+            if it >= ADVANCE_ITERATIONS - 1:
+                phase = SEARCH  # grazing: find the minimum of phi on [s, 1]
+                hi = 1.0
+                lo = s
+                s = 0.5 * (lo + hi)
+        else:
+            lo = s  # search: the minimum lies to the right
+            if hi - lo <= 1e-12:
+                break
+            s = 0.5 * (lo + hi)
+    if phase == BISECT:
         hit, t = True, hi
     return hit, t, n
 

@@ -33,18 +33,26 @@ def rotation_from_vector(rotvec: np.ndarray) -> np.ndarray:
 
 
 def rotation_to_vector(R: np.ndarray) -> np.ndarray:
-    """log(R) as a rotation vector (axis * angle), the inverse of `rotation_from_vector`."""
-    cos = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos)
+    """log(R) as a rotation vector (axis * angle), the inverse of `rotation_from_vector`.
+
+    The angle comes from atan2(sin, cos), well conditioned at every angle; near a half turn
+    the axis comes from the symmetric part (R + R^T)/2 - cos I = (1 - cos) k k^T, its sign
+    from the antisymmetric part.
+    """
     w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    sin = np.linalg.norm(w) / 2.0
+    cos = (np.trace(R) - 1.0) / 2.0
+    angle = np.arctan2(sin, cos)
     if angle < 1e-8:
         return 0.5 * w
-    if np.pi - angle < 1e-6:
-        # Near a half turn the antisymmetric part vanishes: take the axis from R + I.
-        M = (R + np.eye(3)) / 2.0
-        k = M[np.argmax(np.diag(M))]
-        return np.pi * k / np.linalg.norm(k)
-    return angle / (2.0 * np.sin(angle)) * w
+    if cos > -0.5:
+        return angle / (2.0 * sin) * w
+    M = (R + R.T) / 2.0 - cos * np.eye(3)
+    k = M[np.argmax(np.diag(M))]
+    k = k / np.linalg.norm(k)
+    if np.dot(k, w) < 0.0:
+        k = -k
+    return angle * k
 
 
 def align_y(direction: np.ndarray) -> np.ndarray:
@@ -52,10 +60,9 @@ def align_y(direction: np.ndarray) -> np.ndarray:
     d = np.asarray(direction, dtype=np.float64)
     d = d / np.linalg.norm(d)
     y = np.array([0.0, 1.0, 0.0])
-    c = float(np.dot(y, d))
-    if c > 1.0 - 1e-12:
-        return np.eye(3)
-    if c < -1.0 + 1e-12:
-        return np.diag([1.0, -1.0, -1.0])  # half turn about x
     axis = np.cross(y, d)
-    return rotation_matrix(axis, np.arctan2(np.linalg.norm(axis), c))
+    sin = np.linalg.norm(axis)
+    cos = float(np.dot(y, d))
+    if sin < 1e-15:
+        return np.eye(3) if cos > 0 else np.diag([1.0, -1.0, -1.0])  # identity or a half turn about x
+    return rotation_matrix(axis / sin, np.arctan2(sin, cos))

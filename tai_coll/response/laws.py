@@ -53,22 +53,3 @@ def respond_pair(va: vec3, vb: vec3, inv_ma, inv_mb, n: vec3, restitution, frict
     impulse = (v_new - v_rel) / (inv_ma + inv_mb)
     return va + inv_ma * impulse, vb - inv_mb * impulse
 
-
-@ti.func
-def repel(v_rel: vec3, n: vec3, target_vn, friction):
-    """Last resort (PHYSICS.md 3, seed 001): accept a penetration and push out.
-
-    The relative normal velocity is raised to at least `target_vn` (the caller makes it
-    proportional to the depth); friction acts as usual with that dv_N.
-    """
-    vn = v_rel.dot(n)
-    out = v_rel
-    if vn < target_vn:
-        dvn = target_vn - vn
-        vt = v_rel - vn * n
-        vt_len = vt.norm()
-        scale = 0.0
-        if vt_len > 0.0:
-            scale = ti.max(0.0, 1.0 - friction * dvn / vt_len)
-        out = scale * vt + target_vn * n
-    return out

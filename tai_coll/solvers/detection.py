@@ -19,6 +19,7 @@ vec3 = ti.math.vec3
 
 # Relative size of a normal velocity component that counts as round-off, not approach.
 APPROACH_EPS = 1e-6
+APPROACH_FLOOR = 1e-12  # m/s
 
 
 @ti.func
@@ -39,9 +40,20 @@ def collider_sdf(c: ti.template(), ci, x: vec3, end_pose: bool):
 
 
 @ti.func
-def approaching(v_rel: vec3, n: vec3) -> bool:
-    """Relative normal velocity below zero, beyond round-off of the velocity itself."""
-    return v_rel.dot(n) < -APPROACH_EPS * v_rel.norm()
+def approaching(v: vec3, vs: vec3, n: vec3) -> bool:
+    """Relative normal velocity (v - vs) . n below zero, beyond the round-off of the speeds
+    involved: a relative velocity that is pure round-off must not count as approach."""
+    return (v - vs).dot(n) < -APPROACH_EPS * (v.norm() + vs.norm()) - APPROACH_FLOOR
+
+
+@ti.func
+def carried(c: ti.template(), ci, x: vec3, elapsed) -> vec3:
+    """Where the point x, taken at `elapsed` (fraction of the substep), sits relative to the
+    collider's end pose once carried along with the collider: sweeping from there to x1
+    against the end pose is the particle's path relative to a moving collider. Exact at
+    elapsed = 0; later, the translation is interpolated. Static colliders: x itself."""
+    start = c.center0[ci] + elapsed * (c.center1[ci] - c.center0[ci])
+    return c.center1[ci] + c.rotation1[ci] @ (c.rotation0[ci].transpose() @ (x - start))
 
 
 @ti.func
@@ -88,14 +100,17 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
         if candidate:
             t = 0.0
             n = n0
+            start = x0
             if gap0 >= 0.0:
+                # Sweep the path relative to the collider, against its end pose.
+                start = carried(c, ci, x0, 0.0)
                 hit, t_hit, n_hit = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci],
-                                                   x0, x1, r)
+                                                   start, x1, r)
                 candidate = hit
                 t, n = t_hit, n_hit
             if candidate and (t < best_t or (t == best_t and gap1 < best_gap)):
-                vs = surface_velocity(c, ci, x0 + t * (x1 - x0) - r * n)
-                if approaching(v - vs, n):
+                vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
+                if approaching(v, vs, n):
                     found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n, vs
     return found, found_n, found_vs
 
@@ -117,20 +132,21 @@ def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
 
 
 @ti.func
-def earliest_approach(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
-    """For the exact-time scheme: the first collider the straight path x0 -> x1 touches while
-    approaching it. Returns (collider or -1, fraction t, normal, surface velocity)."""
+def earliest_approach(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, elapsed, r, slop):
+    """For the exact-time scheme: the first collider that the path x0 -> x1 (starting at
+    `elapsed`, a fraction of the substep) touches while approaching it, swept relative to
+    each collider. Returns (collider or -1, fraction t of the path, normal, surface velocity)."""
     found = -1
     first_t = 2.0
     first_n = vec3(0.0, 1.0, 0.0)
     first_vs = vec3(0.0, 0.0, 0.0)
-    length = (x1 - x0).norm()
     for ci in range(n_colliders):
-        phi, n0 = collider_sdf(c, ci, x0, True)
-        if phi - r < length + slop and phi >= r - slop:
-            hit, t, n = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], x0, x1, r)
+        start = carried(c, ci, x0, elapsed)
+        phi, n0 = collider_sdf(c, ci, start, True)
+        if phi - r < (x1 - start).norm() + slop and phi >= r - slop:
+            hit, t, n = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], start, x1, r)
             if hit and t < first_t:
-                vs = surface_velocity(c, ci, x0 + t * (x1 - x0) - r * n)
-                if approaching(v - vs, n):
+                vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
+                if approaching(v, vs, n):
                     found, first_t, first_n, first_vs = ci, t, n, vs
     return found, first_t, first_n, first_vs

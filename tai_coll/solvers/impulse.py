@@ -23,7 +23,7 @@ import taichi as ti
 
 from .. import validate
 from ..response.collide import WET_LAWS
-from ..response.laws import repel, respond
+from ..response.laws import respond
 from ..scene import particles as P
 from .detection import detect, earliest_approach, start_penetration, surface_velocity
 from .integrate import store, symplectic_euler
@@ -48,18 +48,22 @@ def apply_law(c: ti.template(), ci, v: vec3, n: vec3, vs: vec3, restitution, wet
 
 @ti.func
 def repel_start_penetrations(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, x1: vec3,
-                             v1: vec3, r, slop, dt, repulsion, speed_limit):
-    """Last resort (PHYSICS.md 3): for a collider the particle was already inside at time t,
-    accept the penetration and raise the normal velocity to repulsion * depth / dt."""
+                             v1: vec3, r, slop, dt, repulsion, speed_limit, wet_law: ti.template()):
+    """Last resort (PHYSICS.md 3, seed 001): a particle already inside a collider at time t
+    keeps its penetration for this substep and is pushed out along the normal by
+    `repulsion` x depth (at most speed_limit x dt). The push moves the position only; the
+    velocity gets the inelastic law (e = 0, friction as usual), so a particle freed from a
+    collider does not fly off with the push as velocity."""
+    push = vec3(0.0, 0.0, 0.0)
     for ci in range(n_colliders):
         inside, depth, n, point = start_penetration(c, ci, x0, r, slop)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
-            target = ti.min(repulsion * depth / dt, speed_limit)
-            v1 = vs + repel(v1 - vs, n, target, c.material[ci][1])
-            x1 = x0 + dt * v1
+            v1 = apply_law(c, ci, v1, n, vs, 0.0, wet_law)
+            push += ti.min(repulsion * depth, speed_limit * dt) * n
+            x1 = x0 + dt * v1 + push
             ti.atomic_add(p.stats[P.STAT_REPULSION], 1)
-    return x1, v1
+    return x1, v1, push
 
 
 @ti.func
@@ -133,7 +137,7 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3
     last_vs = vec3(0.0, 0.0, 0.0)
     for _ in range(max_iterations):
         x_end = x + remaining * v
-        ci, t, n, vs = earliest_approach(c, n_colliders, x, x_end, v, r, slop)
+        ci, t, n, vs = earliest_approach(c, n_colliders, x, x_end, v, 1.0 - remaining / dt, r, slop)
         if ci < 0:
             x = x_end
             done = True
@@ -188,9 +192,10 @@ def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity
         # integrate without collisions
         x1, v1 = symplectic_euler(x0, v0, gravity, dt)
         # query and respond
+        push = vec3(0.0, 0.0, 0.0)
         if ti.static(scheme != SIMPLE):
-            x1, v1 = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
-                                              repulsion_speed_limit)
+            x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
+                                              repulsion_speed_limit, wet_law)
         if ti.static(scheme == SIMPLE):
             x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, 0, 1, True, False,
                                     wet_law)
@@ -201,7 +206,7 @@ def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity
             x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, elastic_iterations,
                                     max_iterations, False, True, wet_law)
         else:
-            x1, v1 = resolve_exact_time(p, c, n_colliders, x0, v1, r, slop, dt, max_iterations,
+            x1, v1 = resolve_exact_time(p, c, n_colliders, x0 + push, v1, r, slop, dt, max_iterations,
                                         rest_speed, wet_law)
         # scatter
         store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
@@ -218,8 +223,9 @@ class ImpulseSolver:
     elastic_iterations: how many times the elastic pass of Implementation 3 may repeat
         while the candidate still interferes.
     repulsion: the last resort for a particle already inside a collider at the start of a
-        substep: its normal velocity is raised to repulsion * depth / dt, i.e. this fraction of
-        the depth is recovered per substep. Capped at repulsion_speed_limit (m/s).
+        substep: this fraction of the depth is recovered per substep, by moving the position
+        along the normal (the velocity gets the inelastic law), at most
+        repulsion_speed_limit * dt per substep (m/s).
     slop: penetration, as a fraction of the particle radius, below which a particle still
         counts as outside (absorbs round-off at resting contacts).
     rest_speed: exact_time only: approach speeds (m/s) below this get e = 0. None: twice the

@@ -16,8 +16,11 @@ def symplectic_euler(x: vec3, v: vec3, acceleration: vec3, dt):
 
 @ti.func
 def is_finite(a: vec3) -> bool:
-    s = a.x + a.y + a.z
-    return not (ti.math.isnan(s) or ti.math.isinf(s))
+    finite = True
+    for k in ti.static(range(3)):
+        if ti.math.isnan(a[k]) or ti.math.isinf(a[k]):
+            finite = False
+    return finite
 
 
 @ti.func
