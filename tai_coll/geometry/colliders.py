@@ -19,11 +19,17 @@ class Collider:
 
     kind: int = -1
 
-    def __init__(self, *, center, rotation, params):
+    #: params[3] holds the radius of a sphere about `center` that encloses the shape (m), so
+    #: kernels can rule a collider out with one distance before evaluating its SDF.
+    BOUND_SLOT = 3
+    UNBOUNDED = 1e30
+
+    def __init__(self, *, center, rotation, params, bound):
         self.center = center
         self.rotation = rotation
         self.params = np.zeros(4)
         self.params[: len(params)] = params
+        self.params[self.BOUND_SLOT] = bound
 
     @property
     def kind_name(self) -> str:
@@ -70,7 +76,7 @@ class Plane(Collider):
         point = validate.vector3("point", point)
         normal = validate.vector3("normal", normal, nonzero=True)
         self.normal_vector = normal / np.linalg.norm(normal)
-        super().__init__(center=point, rotation=align_y(self.normal_vector), params=())
+        super().__init__(center=point, rotation=align_y(self.normal_vector), params=(), bound=self.UNBOUNDED)
 
     def _describe(self):
         return f"point={self.center.tolist()}, normal={self.normal_vector.tolist()}"
@@ -84,7 +90,7 @@ class Sphere(Collider):
     def __init__(self, *, center=(0.0, 0.0, 0.0), radius=1.0):
         center = validate.vector3("center", center)
         self.radius = validate.real("radius", radius, low=0.0, low_open=True)
-        super().__init__(center=center, rotation=np.eye(3), params=(self.radius,))
+        super().__init__(center=center, rotation=np.eye(3), params=(self.radius,), bound=self.radius)
 
     def _describe(self):
         return f"center={self.center.tolist()}, radius={self.radius}"
@@ -101,7 +107,8 @@ class Box(Collider):
         if np.min(half) <= 0:
             raise ValueError(f"half_extents must all be > 0; got {half.tolist()}")
         self.half_extents = half
-        super().__init__(center=center, rotation=validate.rotation("rotation", rotation), params=half)
+        super().__init__(center=center, rotation=validate.rotation("rotation", rotation), params=half,
+                         bound=float(np.linalg.norm(half)))
 
     def _describe(self):
         return f"center={self.center.tolist()}, half_extents={self.half_extents.tolist()}"
@@ -116,7 +123,11 @@ class _Axial(Collider):
         self.half_height = validate.real("half_height", half_height, low=0.0, low_open=True)
         axis = validate.vector3("axis", axis, nonzero=True)
         self.axis = axis / np.linalg.norm(axis)
-        super().__init__(center=center, rotation=align_y(self.axis), params=(self.radius, self.half_height))
+        super().__init__(center=center, rotation=align_y(self.axis), params=(self.radius, self.half_height),
+                         bound=self._bound())
+
+    def _bound(self) -> float:
+        raise NotImplementedError
 
     def _describe(self):
         return (f"center={self.center.tolist()}, radius={self.radius}, "
@@ -131,6 +142,9 @@ class Cylinder(_Axial):
     def __init__(self, *, center=(0.0, 0.0, 0.0), radius=0.5, half_height=0.5, axis=(0.0, 1.0, 0.0)):
         super().__init__(center=center, radius=radius, half_height=half_height, axis=axis)
 
+    def _bound(self):
+        return float(np.hypot(self.radius, self.half_height))
+
 
 class Capsule(_Axial):
     """A segment of length 2*half_height along `axis`, swept by a sphere of `radius`."""
@@ -139,6 +153,9 @@ class Capsule(_Axial):
 
     def __init__(self, *, center=(0.0, 0.0, 0.0), radius=0.25, half_height=0.5, axis=(0.0, 1.0, 0.0)):
         super().__init__(center=center, radius=radius, half_height=half_height, axis=axis)
+
+    def _bound(self):
+        return self.radius + self.half_height
 
     @classmethod
     def from_endpoints(cls, a, b, *, radius) -> "Capsule":

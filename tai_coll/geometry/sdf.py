@@ -116,6 +116,19 @@ def local_sdf(kind: ti.i32, p: vec3, params: vec4):
 
 @ti.func
 def world_sdf(kind: ti.i32, params: vec4, center: vec3, rotation: ti.math.mat3, x: vec3):
-    """phi and the world-space normal at world point x for a collider posed at (center, R)."""
-    phi, n_local = local_sdf(kind, rotation.transpose() @ (x - center), params)
-    return phi, rotation @ n_local
+    """phi and the world-space normal at world point x for a collider posed at (center, R).
+
+    Planes and spheres, the most common colliders, skip the two frame rotations: the plane's
+    normal is the rotation's second column, and a sphere looks the same in every frame.
+    """
+    phi = 0.0
+    n = vec3(0.0, 1.0, 0.0)
+    if kind == kinds.PLANE:
+        n = vec3(rotation[0, 1], rotation[1, 1], rotation[2, 1])
+        phi = (x - center).dot(n)
+    elif kind == kinds.SPHERE:
+        phi, n = sphere_sdf(x - center, params[0])
+    else:
+        phi, n_local = local_sdf(kind, rotation.transpose() @ (x - center), params)
+        n = rotation @ n_local
+    return phi, n

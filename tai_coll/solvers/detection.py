@@ -20,6 +20,8 @@ vec3 = ti.math.vec3
 # Relative size of a normal velocity component that counts as round-off, not approach.
 APPROACH_EPS = 1e-6
 APPROACH_FLOOR = 1e-12  # m/s
+INFINITY = 1e30
+BOUND_SLOT = 3  # params[3]: bounding-sphere radius (geometry.colliders.Collider.BOUND_SLOT)
 
 
 @ti.func
@@ -57,8 +59,11 @@ def carried(c: ti.template(), ci, x: vec3, elapsed) -> vec3:
 
 
 @ti.func
-def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
-    """Returns (collider index or -1, outward normal, surface velocity at the contact).
+def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: vec3, r, slop):
+    """Returns (collider index or -1, outward normal, surface velocity at the contact) for
+    velocity v, the same for a second velocity v_alt from the same geometric sweep (the
+    elastic pass tests v(t), the contact pass after it the candidate velocity: one sweep
+    serves both when the first finds nothing to bounce off), and the clearance of x1.
 
     A collider is a candidate when
     - x1 interferes (phi(x1) < r) and lies deeper than x0 did: a particle resting or sliding
@@ -71,12 +76,22 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
     (ties: the deepest x1). x0 deeper than the slop: skipped, the last-resort repulsion owns it.
     """
     length = (x1 - x0).norm()
+    clearance = INFINITY
     best_t = 2.0
     best_gap = 0.0
     found = -1
     found_n = vec3(0.0, 1.0, 0.0)
     found_vs = vec3(0.0, 0.0, 0.0)
+    alt_t = 2.0
+    alt_gap = 0.0
+    alt = -1
+    alt_n = vec3(0.0, 1.0, 0.0)
+    alt_vs = vec3(0.0, 0.0, 0.0)
     for ci in range(n_colliders):
+        reach = (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] - r
+        if reach >= length:
+            clearance = ti.min(clearance, reach)
+            continue
         # k = 0: x1 against the end pose; k = 1: x0 against the start pose, only if needed.
         gap1 = 0.0
         gap0 = 0.0
@@ -86,6 +101,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
             phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
             if k == 0:
                 gap1 = phi - r
+                clearance = ti.min(clearance, gap1)
                 # Interference, or a clear end that the segment may still reach (phi is
                 # 1-Lipschitz, so a gap beyond the segment's length rules a crossing out).
                 candidate = gap1 < length
@@ -108,11 +124,13 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, r, slop):
                                                    start, x1, r)
                 candidate = hit
                 t, n = t_hit, n_hit
-            if candidate and (t < best_t or (t == best_t and gap1 < best_gap)):
+            if candidate:
                 vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
-                if approaching(v, vs, n):
+                if (t < best_t or (t == best_t and gap1 < best_gap)) and approaching(v, vs, n):
                     found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n, vs
-    return found, found_n, found_vs
+                if (t < alt_t or (t == alt_t and gap1 < alt_gap)) and approaching(v_alt, vs, n):
+                    alt, alt_t, alt_gap, alt_n, alt_vs = ci, t, gap1, n, vs
+    return found, found_n, found_vs, alt, alt_n, alt_vs, clearance
 
 
 @ti.func
@@ -120,14 +138,15 @@ def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
     """If x0 was inside collider ci at time t (beyond the slop), return (True, depth, normal,
     contact point) measured against the end pose; else (False, ...)."""
     inside = False
-    phi = 0.0
+    phi = r
     n = vec3(0.0, 1.0, 0.0)
-    for k in range(2):
-        phi, n = collider_sdf(c, ci, x0, k == 1)
-        if k == 0:
-            inside = phi < r - slop
-            if not inside:
-                break
+    if (x0 - c.center0[ci]).norm() - c.params[ci][BOUND_SLOT] < r:  # else outside the bounding sphere
+        for k in range(2):
+            phi, n = collider_sdf(c, ci, x0, k == 1)
+            if k == 0:
+                inside = phi < r - slop
+                if not inside:
+                    break
     return inside, r - phi, n, x0 - phi * n
 
 

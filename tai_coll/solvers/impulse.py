@@ -67,34 +67,47 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), n_colliders, x0
 
 
 @ti.func
-def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, v0: vec3, x1: vec3,
+def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, push: vec3, v0: vec3, x1: vec3,
                    v1: vec3, r, slop, dt, elastic_passes, contact_passes,
                    first_contact_elastic: ti.template(), failsafe: ti.template(), wet_law: ti.template()):
     """The simple, micro-collision and elastic-then-contact schemes as one loop.
 
     Elastic passes (Implementation 3): the law with restitution on the start velocity v(t);
     its change is added to the candidate (x1 += dt dv, v1 += dv).
-    Contact passes: the law on the average velocity v_avg = (x1 - x0)/dt, then
-    x1 = x0 + dt v_new. Restitution only on the first contact pass when
-    first_contact_elastic (Implementations 1 and 2), e = 0 otherwise, so the loop ends.
+    Contact passes: the law on the average velocity, then re-integration from the start,
+    x1 = x0 + push + dt v_new. The average velocity is v1 itself: x1 = x0 + push + dt v1
+    holds throughout, and recomputing it as (x1 - x0)/dt would add position round-off / dt,
+    which in f32 is enough to fake an approach. Restitution only on the first contact pass
+    when first_contact_elastic (Implementations 1 and 2), e = 0 otherwise, so the loop ends.
     If contacts remain after the cap: the failsafe stops the particle relative to the collider.
     One call of `detect` serves every pass, which keeps the kernel small.
+    Returns (x1, v1, clearance of x1, or -1 when unknown).
     """
     v_start = v0
     elastic_left = elastic_passes
     contact_done = 0
     resolved = False
+    clearance = -1.0
     last_vs = vec3(0.0, 0.0, 0.0)
+    ci = -1
+    n = vec3(0.0, 1.0, 0.0)
+    vs = vec3(0.0, 0.0, 0.0)
     for _ in range(elastic_passes + contact_passes + 1):
         v_test = v_start
         if elastic_left == 0:
-            v_test = (x1 - x0) / dt
-        ci, n, vs = detect(c, n_colliders, x0, x1, v_test, r, slop)
+            v_test = v1
+        ci_alt = -1
+        n_alt = n
+        vs_alt = vs
+        ci, n, vs, ci_alt, n_alt, vs_alt, near = detect(c, n_colliders, x0, x1, v_test, v1, r, slop)
+        if ci < 0 and elastic_left > 0 and ci_alt >= 0:
+            # Nothing to bounce off, but the candidate velocity meets a contact: go straight to
+            # the contact passes with what this sweep found.
+            elastic_left = 0
+            ci, n, vs = ci_alt, n_alt, vs_alt
         if ci < 0:
-            if elastic_left > 0:
-                elastic_left = 0  # nothing more to bounce off: on to contact
-                continue
             resolved = True
+            clearance = near
             break
         last_vs = vs
         restitution = c.material[ci][0]
@@ -112,16 +125,16 @@ def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, v0
                 restitution = 0.0
             elif contact_done > 0:
                 restitution = 0.0
-            v1 = apply_law(c, ci, v_test, n, vs, restitution, wet_law)
-            x1 = x0 + dt * v1
+            v1 = apply_law(c, ci, v1, n, vs, restitution, wet_law)
+            x1 = x0 + push + dt * v1
             contact_done += 1
     if ti.static(failsafe):
         if not resolved:
             # Failsafe (PHYSICS.md 3): stop relative to the collider.
             v1 = last_vs
-            x1 = x0 + dt * last_vs
+            x1 = x0 + push + dt * last_vs
             ti.atomic_add(p.stats[P.STAT_FAILSAFE], 1)
-    return x1, v1
+    return x1, v1, clearance
 
 
 @ti.func
@@ -167,22 +180,26 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     slop_fraction: float, rest_speed: float,
                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
     # Particles are independent of each other here, so with colliders that hold still during
-    # the call, one launch runs several substeps and keeps each particle in registers.
+    # the call, one launch runs several substeps and keeps each particle in registers,
+    # including its clearance: while the distance to every collider exceeds the substep's
+    # displacement, nothing can be touched and the substep is plain integration.
     for i in range(n_particles):
+        clearance = -1.0
         for _ in range(n_substeps):
-            substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
-                             ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1,
-                                            velocity, angular_velocity),
-                             i, n_colliders, gravity, dt, scheme, wet_law, max_iterations, elastic_iterations,
-                             repulsion, repulsion_speed_limit, slop_fraction, rest_speed, use_domain,
-                             domain_lo, domain_hi)
+            clearance = substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
+                                         ColliderArrays(kind, params, material, center0, rotation0, center1,
+                                                        rotation1, velocity, angular_velocity),
+                                         i, n_colliders, gravity, dt, scheme, wet_law, max_iterations,
+                                         elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction,
+                                         rest_speed, use_domain, domain_lo, domain_hi, clearance)
 
 
 @ti.func
 def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity: vec3, dt,
                      scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
                      repulsion, repulsion_speed_limit, slop_fraction, rest_speed, use_domain: ti.template(),
-                     domain_lo: vec3, domain_hi: vec3):
+                     domain_lo: vec3, domain_hi: vec3, clearance):
+    """One substep of particle i; returns its clearance after the substep (-1: unknown)."""
     if p.flags[i] == P.ACTIVE:
         # gather
         x0 = p.x[i]
@@ -191,25 +208,31 @@ def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity
         slop = slop_fraction * r
         # integrate without collisions
         x1, v1 = symplectic_euler(x0, v0, gravity, dt)
-        # query and respond
-        push = vec3(0.0, 0.0, 0.0)
-        if ti.static(scheme != SIMPLE):
-            x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
-                                              repulsion_speed_limit, wet_law)
-        if ti.static(scheme == SIMPLE):
-            x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, 0, 1, True, False,
-                                    wet_law)
-        elif ti.static(scheme == MICRO):
-            x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, 0, max_iterations,
-                                    True, True, wet_law)
-        elif ti.static(scheme == ELASTIC_CONTACT):
-            x1, v1 = resolve_passes(p, c, n_colliders, x0, v0, x1, v1, r, slop, dt, elastic_iterations,
-                                    max_iterations, False, True, wet_law)
+        step = (x1 - x0).norm()
+        if clearance > step:
+            clearance -= step  # free flight: phi is 1-Lipschitz, nothing within reach
         else:
-            x1, v1 = resolve_exact_time(p, c, n_colliders, x0 + push, v1, r, slop, dt, max_iterations,
-                                        rest_speed, wet_law)
+            # query and respond
+            push = vec3(0.0, 0.0, 0.0)
+            if ti.static(scheme != SIMPLE):
+                x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
+                                                        repulsion_speed_limit, wet_law)
+            if ti.static(scheme == SIMPLE):
+                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0, 1,
+                                                   True, False, wet_law)
+            elif ti.static(scheme == MICRO):
+                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0,
+                                                   max_iterations, True, True, wet_law)
+            elif ti.static(scheme == ELASTIC_CONTACT):
+                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt,
+                                                   elastic_iterations, max_iterations, False, True, wet_law)
+            else:
+                x1, v1 = resolve_exact_time(p, c, n_colliders, x0 + push, v1, r, slop, dt, max_iterations,
+                                            rest_speed, wet_law)
+                clearance = -1.0
         # scatter
         store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
+    return clearance
 
 
 class ImpulseSolver:
