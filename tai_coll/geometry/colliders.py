@@ -54,11 +54,18 @@ class Collider:
         if x0.shape != x1.shape:
             raise ValueError(f"starts and ends must have the same shape; got {x0.shape} and {x1.shape}")
         radius = validate.real("radius", radius, low=0.0)
-        return queries.segment_crossing(self.kind, self.params, self.center, self.rotation, x0, x1, radius)
+        return queries.segment_crossing(self, x0, x1, radius)
+
+    def shape_data(self):
+        """Array data for kinds backed by arrays: (ishape (8,) int, fshape (8,) float,
+        float block, int block). ishape[0] and ishape[1] are reserved: whoever packs the
+        blocks into pools (the collider table, a host query) writes the blocks' offsets
+        there. Analytic shapes have none."""
+        return np.zeros(8, dtype=np.int32), np.zeros(8), np.zeros(0), np.zeros(0, dtype=np.int32)
 
     def _query(self, points):
         pts = validate.points("points", points)
-        return queries.signed_distance_and_normal(self.kind, self.params, self.center, self.rotation, pts)
+        return queries.signed_distance_and_normal(self, pts)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self._describe()})"

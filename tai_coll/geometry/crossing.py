@@ -66,7 +66,7 @@ def sphere_crossing(x0: vec3, x1: vec3, radius, r):
 
 
 @ti.func
-def advance_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
+def advance_crossing(g: ti.template(), ci, kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
     """First t with phi(x0 + t d) = r for the convex shapes (box, cylinder, capsule).
 
     Three phases around one SDF evaluation per iteration (each call site of `local_sdf`
@@ -89,7 +89,7 @@ def advance_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
     hi = 1.0  # advance/bisect: first known inside; search: right end of the bracket
     s = 0.0   # parameter evaluated this iteration
     for it in range(ADVANCE_ITERATIONS + SEARCH_ITERATIONS + BISECT_ITERATIONS):
-        gap, n_s = local_sdf(kind, x0 + s * d, params)
+        gap, n_s = local_sdf(g, ci, kind, x0 + s * d, params)
         gap -= r
         slope = n_s.dot(d)
         if phase == BISECT:
@@ -140,7 +140,7 @@ def advance_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
 
 
 @ti.func
-def local_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
+def local_crossing(g: ti.template(), ci, kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
     hit = False
     t = 1.0
     n = vec3(0.0, 1.0, 0.0)
@@ -149,13 +149,13 @@ def local_crossing(kind: ti.i32, params: vec4, x0: vec3, x1: vec3, r):
     elif kind == kinds.SPHERE:
         hit, t, n = sphere_crossing(x0, x1, params[0], r)
     else:
-        hit, t, n = advance_crossing(kind, params, x0, x1, r)
+        hit, t, n = advance_crossing(g, ci, kind, params, x0, x1, r)
     return hit, t, n
 
 
 @ti.func
-def world_crossing(kind: ti.i32, params: vec4, center: vec3, rotation: ti.math.mat3,
+def world_crossing(g: ti.template(), ci, kind: ti.i32, params: vec4, center: vec3, rotation: ti.math.mat3,
                    x0: vec3, x1: vec3, r):
     Rt = rotation.transpose()
-    hit, t, n = local_crossing(kind, params, Rt @ (x0 - center), Rt @ (x1 - center), r)
+    hit, t, n = local_crossing(g, ci, kind, params, Rt @ (x0 - center), Rt @ (x1 - center), r)
     return hit, t, rotation @ n

@@ -97,8 +97,10 @@ def capsule_sdf(p: vec3, radius, half_height):
 
 
 @ti.func
-def local_sdf(kind: ti.i32, p: vec3, params: vec4):
-    """Dispatch on the collider kind; `params` packs (radius | half extents, half height)."""
+def local_sdf(g: ti.template(), ci, kind: ti.i32, p: vec3, params: vec4):
+    """Dispatch on the collider kind; `params` packs (radius | half extents, half height).
+    Kinds backed by arrays (grids, triangles) read their block of the shape data `g`
+    (scene.arrays.ShapeData) at collider index ci; analytic kinds ignore both."""
     phi = 0.0
     n = vec3(0.0, 1.0, 0.0)
     if kind == kinds.PLANE:
@@ -115,7 +117,7 @@ def local_sdf(kind: ti.i32, p: vec3, params: vec4):
 
 
 @ti.func
-def world_sdf(kind: ti.i32, params: vec4, center: vec3, rotation: ti.math.mat3, x: vec3):
+def world_sdf(g: ti.template(), ci, kind: ti.i32, params: vec4, center: vec3, rotation: ti.math.mat3, x: vec3):
     """phi and the world-space normal at world point x for a collider posed at (center, R).
 
     Planes and spheres, the most common colliders, skip the two frame rotations: the plane's
@@ -129,6 +131,6 @@ def world_sdf(kind: ti.i32, params: vec4, center: vec3, rotation: ti.math.mat3, 
     elif kind == kinds.SPHERE:
         phi, n = sphere_sdf(x - center, params[0])
     else:
-        phi, n_local = local_sdf(kind, rotation.transpose() @ (x - center), params)
+        phi, n_local = local_sdf(g, ci, kind, rotation.transpose() @ (x - center), params)
         n = rotation @ n_local
     return phi, n

@@ -13,7 +13,7 @@ import taichi as ti
 
 # Building a bundle inside a kernel is plain Python evaluated at compile time, which is what
 # we want; Taichi warns about any such call, so silence exactly these two.
-warnings.filterwarnings("ignore", message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays)"',
+warnings.filterwarnings("ignore", message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays|ShapeData)"',
                         category=SyntaxWarning)
 
 vec3 = ti.math.vec3
@@ -42,11 +42,22 @@ class ParticleArrays:
         self.x, self.v, self.mass, self.radius, self.flags, self.stats = x, v, mass, radius, flags, stats
 
 
-class ColliderArrays:
-    """The collider table's columns: see `ColliderTable`."""
+class ShapeData:
+    """Array-backed shape data (grids, triangles, heights) shared by a scene's colliders:
+    per collider 8 integers (`ishape`) and 8 floats (`fshape`) describing its block, and
+    the float and integer pools the blocks live in. Geometry functions take this bundle as
+    `g` with the collider index; analytic shapes ignore it."""
+
+    def __init__(self, ishape, fshape, fpool, ipool):
+        self.ishape, self.fshape, self.fpool, self.ipool = ishape, fshape, fpool, ipool
+
+
+class ColliderArrays(ShapeData):
+    """The collider table's columns: see `ColliderTable`. Also a `ShapeData`."""
 
     def __init__(self, kind, params, material, center0, rotation0, center1, rotation1, velocity,
-                 angular_velocity):
+                 angular_velocity, ishape, fshape, fpool, ipool):
+        super().__init__(ishape, fshape, fpool, ipool)
         self.kind, self.params, self.material = kind, params, material
         self.center0, self.rotation0, self.center1, self.rotation1 = center0, rotation0, center1, rotation1
         self.velocity, self.angular_velocity = velocity, angular_velocity

@@ -52,12 +52,17 @@ class ColliderTable:
         self.rotation1 = ti.Matrix.ndarray(3, 3, float, shape=capacity)
         self.velocity = ti.Vector.ndarray(3, float, shape=capacity)
         self.angular_velocity = ti.Vector.ndarray(3, float, shape=capacity)
+        self.ishape = ti.Vector.ndarray(8, ti.i32, shape=capacity)
+        self.fshape = ti.Vector.ndarray(8, float, shape=capacity)
+        self.fpool = ti.ndarray(float, shape=1)
+        self.ipool = ti.ndarray(ti.i32, shape=1)
         self.capacity = capacity
 
     def kernel_args(self):
         """The arrays in the order `ColliderArrays` takes them."""
         return (self.kind, self.params, self.material, self.center0, self.rotation0, self.center1,
-                self.rotation1, self.velocity, self.angular_velocity)
+                self.rotation1, self.velocity, self.angular_velocity, self.ishape, self.fshape, self.fpool,
+                self.ipool)
 
     def __len__(self):
         return len(self.entries)
@@ -108,8 +113,35 @@ class ColliderTable:
         self.kind.from_numpy(kind)
         self.params.from_numpy(params)
         self.material.from_numpy(material)
+        self._upload_shape_data()
         poses = [(e.center, e.rotation) for e in self.entries]
         self._upload_poses(poses, poses)
+
+    def _upload_shape_data(self):
+        """Pack every collider's array block into the float and int pools (offsets in
+        ishape[0] and ishape[1])."""
+        dtype = runtime.float_dtype()
+        ishape = np.zeros((self.capacity, 8), dtype=np.int32)
+        fshape = np.zeros((self.capacity, 8), dtype=dtype)
+        fblocks, iblocks = [np.zeros(1, dtype=dtype)], [np.zeros(1, dtype=np.int32)]
+        f_used, i_used = 1, 1  # slot 0 of each pool stays unused, so empty pools are never zero-sized
+        for k, e in enumerate(self.entries):
+            meta_i, meta_f, fdata, idata = e.shape.shape_data()
+            ishape[k] = meta_i
+            fshape[k] = meta_f
+            ishape[k, 0], ishape[k, 1] = f_used, i_used
+            fblocks.append(np.asarray(fdata, dtype=dtype))
+            iblocks.append(np.asarray(idata, dtype=np.int32))
+            f_used += len(fdata)
+            i_used += len(idata)
+        self.ishape.from_numpy(ishape)
+        self.fshape.from_numpy(fshape)
+        if self.fpool.shape[0] != f_used:
+            self.fpool = ti.ndarray(float, shape=f_used)
+        if self.ipool.shape[0] != i_used:
+            self.ipool = ti.ndarray(ti.i32, shape=i_used)
+        self.fpool.from_numpy(np.concatenate(fblocks))
+        self.ipool.from_numpy(np.concatenate(iblocks))
 
     def _upload_poses(self, poses0, poses1):
         """One packed host array and one small kernel: this runs every substep of a scene

@@ -38,7 +38,7 @@ def collider_sdf(c: ti.template(), ci, x: vec3, end_pose: bool):
     if end_pose:
         center = c.center1[ci]
         rotation = c.rotation1[ci]
-    return world_sdf(c.kind[ci], c.params[ci], center, rotation, x)
+    return world_sdf(c, ci, c.kind[ci], c.params[ci], center, rotation, x)
 
 
 @ti.func
@@ -120,7 +120,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
             if gap0 >= 0.0:
                 # Sweep the path relative to the collider, against its end pose.
                 start = carried(c, ci, x0, 0.0)
-                hit, t_hit, n_hit = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci],
+                hit, t_hit, n_hit = world_crossing(c, ci, c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci],
                                                    start, x1, r)
                 candidate = hit
                 t, n = t_hit, n_hit
@@ -163,7 +163,8 @@ def earliest_approach(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3
         start = carried(c, ci, x0, elapsed)
         phi, n0 = collider_sdf(c, ci, start, True)
         if phi - r < (x1 - start).norm() + slop and phi >= r - slop:
-            hit, t, n = world_crossing(c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], start, x1, r)
+            hit, t, n = world_crossing(c, ci, c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], start, x1,
+                                       r)
             if hit and t < first_t:
                 vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
                 if approaching(v, vs, n):

@@ -173,7 +173,8 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     stats: scalars(ti.i32),
                     kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
                     rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
-                    angular_velocity: vectors(),
+                    angular_velocity: vectors(), ishape: vectors(8), fshape: vectors(8), fpool: scalars(),
+                    ipool: scalars(ti.i32),
                     n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
                     scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
                     elastic_iterations: ti.i32, repulsion: float, repulsion_speed_limit: float,
@@ -188,7 +189,8 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
         for _ in range(n_substeps):
             clearance = substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
                                          ColliderArrays(kind, params, material, center0, rotation0, center1,
-                                                        rotation1, velocity, angular_velocity),
+                                                        rotation1, velocity, angular_velocity, ishape, fshape,
+                                                        fpool, ipool),
                                          i, n_colliders, gravity, dt, scheme, wet_law, max_iterations,
                                          elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction,
                                          rest_speed, use_domain, domain_lo, domain_hi, clearance)
