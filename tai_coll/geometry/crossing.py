@@ -144,12 +144,13 @@ def local_crossing(g: ti.template(), ci, kind: ti.i32, params: vec4, x0: vec3, x
     hit = False
     t = 1.0
     n = vec3(0.0, 1.0, 0.0)
-    if kind == kinds.PLANE:
-        hit, t, n = plane_crossing(x0, x1, r)
-    elif kind == kinds.SPHERE:
-        hit, t, n = sphere_crossing(x0, x1, params[0], r)
-    else:
-        hit, t, n = advance_crossing(g, ci, kind, params, x0, x1, r)
+    if ti.static(g.groups & kinds.GROUP_ANALYTIC):
+        if kind == kinds.PLANE:
+            hit, t, n = plane_crossing(x0, x1, r)
+        elif kind == kinds.SPHERE:
+            hit, t, n = sphere_crossing(x0, x1, params[0], r)
+        elif kind == kinds.BOX or kind == kinds.CYLINDER or kind == kinds.CAPSULE:
+            hit, t, n = advance_crossing(g, ci, kind, params, x0, x1, r)
     return hit, t, n
 
 

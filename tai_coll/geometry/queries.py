@@ -8,6 +8,7 @@ import taichi as ti
 
 from .. import runtime
 from ..scene.arrays import ShapeData
+from . import kinds
 from .crossing import world_crossing
 from .sdf import vec3, vec4, world_sdf
 
@@ -15,21 +16,21 @@ mat3 = ti.math.mat3
 
 
 @ti.kernel
-def _sdf_kernel(kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
+def _sdf_kernel(groups: ti.template(), kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
                 ishape: ti.types.ndarray(), fshape: ti.types.ndarray(), fpool: ti.types.ndarray(),
                 ipool: ti.types.ndarray(), points: ti.types.ndarray(),
                 # outputs
                 phi: ti.types.ndarray(), normal: ti.types.ndarray()):
     for i in range(points.shape[0]):
         x = vec3(points[i, 0], points[i, 1], points[i, 2])
-        d, n = world_sdf(ShapeData(ishape, fshape, fpool, ipool), 0, kind, params, center, rotation, x)
+        d, n = world_sdf(ShapeData(ishape, fshape, fpool, ipool, groups), 0, kind, params, center, rotation, x)
         phi[i] = d
         for k in ti.static(range(3)):
             normal[i, k] = n[k]
 
 
 @ti.kernel
-def _crossing_kernel(kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
+def _crossing_kernel(groups: ti.template(), kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
                      ishape: ti.types.ndarray(), fshape: ti.types.ndarray(), fpool: ti.types.ndarray(),
                      ipool: ti.types.ndarray(), starts: ti.types.ndarray(), ends: ti.types.ndarray(), radius: float,
                      # outputs
@@ -38,7 +39,7 @@ def _crossing_kernel(kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
     for i in range(starts.shape[0]):
         x0 = vec3(starts[i, 0], starts[i, 1], starts[i, 2])
         x1 = vec3(ends[i, 0], ends[i, 1], ends[i, 2])
-        h, t, n = world_crossing(ShapeData(ishape, fshape, fpool, ipool), 0, kind, params, center, rotation,
+        h, t, n = world_crossing(ShapeData(ishape, fshape, fpool, ipool, groups), 0, kind, params, center, rotation,
                                  x0, x1, radius)
         hit[i] = 1 if h else 0
         fraction[i] = t
@@ -63,7 +64,7 @@ def signed_distance_and_normal(shape, points):
     phi = np.zeros(len(pts), dtype=dtype)
     normal = np.zeros((len(pts), 3), dtype=dtype)
     if len(pts):
-        _sdf_kernel(kind, vec4(*params), vec3(*center), mat3(rotation), *_shape_arrays(shape), pts, phi, normal)
+        _sdf_kernel(kinds.groups_of([kind]), kind, vec4(*params), vec3(*center), mat3(rotation), *_shape_arrays(shape), pts, phi, normal)
     return phi, normal
 
 
@@ -76,6 +77,6 @@ def segment_crossing(shape, starts, ends, radius):
     fraction = np.ones(len(x0), dtype=dtype)
     normal = np.zeros((len(x0), 3), dtype=dtype)
     if len(x0):
-        _crossing_kernel(kind, vec4(*params), vec3(*center), mat3(rotation), *_shape_arrays(shape), x0, x1,
+        _crossing_kernel(kinds.groups_of([kind]), kind, vec4(*params), vec3(*center), mat3(rotation), *_shape_arrays(shape), x0, x1,
                          radius, hit, fraction, normal)
     return hit.astype(bool), fraction, normal

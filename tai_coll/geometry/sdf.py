@@ -103,16 +103,17 @@ def local_sdf(g: ti.template(), ci, kind: ti.i32, p: vec3, params: vec4):
     (scene.arrays.ShapeData) at collider index ci; analytic kinds ignore both."""
     phi = 0.0
     n = vec3(0.0, 1.0, 0.0)
-    if kind == kinds.PLANE:
-        phi, n = plane_sdf(p)
-    elif kind == kinds.SPHERE:
-        phi, n = sphere_sdf(p, params[0])
-    elif kind == kinds.BOX:
-        phi, n = box_sdf(p, vec3(params[0], params[1], params[2]))
-    elif kind == kinds.CYLINDER:
-        phi, n = cylinder_sdf(p, params[0], params[1])
-    elif kind == kinds.CAPSULE:
-        phi, n = capsule_sdf(p, params[0], params[1])
+    if ti.static(g.groups & kinds.GROUP_ANALYTIC):
+        if kind == kinds.PLANE:
+            phi, n = plane_sdf(p)
+        elif kind == kinds.SPHERE:
+            phi, n = sphere_sdf(p, params[0])
+        elif kind == kinds.BOX:
+            phi, n = box_sdf(p, vec3(params[0], params[1], params[2]))
+        elif kind == kinds.CYLINDER:
+            phi, n = cylinder_sdf(p, params[0], params[1])
+        elif kind == kinds.CAPSULE:
+            phi, n = capsule_sdf(p, params[0], params[1])
     return phi, n
 
 

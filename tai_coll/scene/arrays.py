@@ -46,18 +46,20 @@ class ShapeData:
     """Array-backed shape data (grids, triangles, heights) shared by a scene's colliders:
     per collider 8 integers (`ishape`) and 8 floats (`fshape`) describing its block, and
     the float and integer pools the blocks live in. Geometry functions take this bundle as
-    `g` with the collider index; analytic shapes ignore it."""
+    `g` with the collider index; analytic shapes ignore it. `groups` is the compile-time
+    mask of collider kind groups the kernel handles (geometry.kinds)."""
 
-    def __init__(self, ishape, fshape, fpool, ipool):
+    def __init__(self, ishape, fshape, fpool, ipool, groups):
         self.ishape, self.fshape, self.fpool, self.ipool = ishape, fshape, fpool, ipool
+        self.groups = groups
 
 
 class ColliderArrays(ShapeData):
     """The collider table's columns: see `ColliderTable`. Also a `ShapeData`."""
 
     def __init__(self, kind, params, material, center0, rotation0, center1, rotation1, velocity,
-                 angular_velocity, ishape, fshape, fpool, ipool):
-        super().__init__(ishape, fshape, fpool, ipool)
+                 angular_velocity, ishape, fshape, fpool, ipool, groups):
+        super().__init__(ishape, fshape, fpool, ipool, groups)
         self.kind, self.params, self.material = kind, params, material
         self.center0, self.rotation0, self.center1, self.rotation1 = center0, rotation0, center1, rotation1
         self.velocity, self.angular_velocity = velocity, angular_velocity

@@ -13,6 +13,7 @@ import numpy as np
 import taichi as ti
 
 from .. import runtime
+from ..geometry import kinds
 from ..geometry.colliders import Collider
 from ..materials import Material
 
@@ -66,6 +67,11 @@ class ColliderTable:
 
     def __len__(self):
         return len(self.entries)
+
+    @property
+    def groups(self) -> int:
+        """Compile-time mask of the collider kind groups present (geometry.kinds)."""
+        return kinds.groups_of(e.shape.kind for e in self.entries)
 
     @property
     def has_kinematic(self) -> bool:

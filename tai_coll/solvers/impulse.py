@@ -174,7 +174,7 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
                     rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
                     angular_velocity: vectors(), ishape: vectors(8), fshape: vectors(8), fpool: scalars(),
-                    ipool: scalars(ti.i32),
+                    ipool: scalars(ti.i32), groups: ti.template(),
                     n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
                     scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
                     elastic_iterations: ti.i32, repulsion: float, repulsion_speed_limit: float,
@@ -190,7 +190,7 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
             clearance = substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
                                          ColliderArrays(kind, params, material, center0, rotation0, center1,
                                                         rotation1, velocity, angular_velocity, ishape, fshape,
-                                                        fpool, ipool),
+                                                        fpool, ipool, groups),
                                          i, n_colliders, gravity, dt, scheme, wet_law, max_iterations,
                                          elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction,
                                          rest_speed, use_domain, domain_lo, domain_hi, clearance)
@@ -284,7 +284,7 @@ class ImpulseSolver:
         gravity = scene.gravity
         rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(gravity)) * dt
         lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
-        impulse_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(),
+        impulse_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(), scene._colliders.groups,
                         scene._particles.count, len(scene._colliders), substeps,
                         vec3(*gravity), dt, SCHEMES[self.scheme], WET_LAWS[self.wet_law],
                         self.max_iterations, self.elastic_iterations, self.repulsion,
