@@ -7,6 +7,8 @@ scene does not use keeps compile times short. All analytic kinds form one group,
 scene of analytic shapes shares one compiled kernel.
 """
 
+import taichi as ti
+
 PLANE = 0
 SPHERE = 1
 BOX = 2
@@ -18,6 +20,13 @@ NAMES = {PLANE: "plane", SPHERE: "sphere", BOX: "box", CYLINDER: "cylinder", CAP
 GROUP_ANALYTIC = 1  # plane, sphere, box, cylinder, capsule: closed forms, all convex
 GROUPS = {PLANE: GROUP_ANALYTIC, SPHERE: GROUP_ANALYTIC, BOX: GROUP_ANALYTIC, CYLINDER: GROUP_ANALYTIC,
           CAPSULE: GROUP_ANALYTIC}
+
+
+@ti.func
+def is_convex(kind) -> bool:
+    """Whether the kind's shape is convex (all analytic kinds are): the solvers use it to
+    skip work that convexity makes unnecessary."""
+    return kind <= CAPSULE
 
 
 def groups_of(kind_list) -> int:

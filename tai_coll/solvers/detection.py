@@ -31,6 +31,12 @@ def surface_velocity(c: ti.template(), ci, point: vec3) -> vec3:
 
 
 @ti.func
+def is_still(c: ti.template(), ci) -> bool:
+    """The collider neither moves nor turns during this substep."""
+    return c.velocity[ci].norm_sqr() == 0.0 and c.angular_velocity[ci].norm_sqr() == 0.0
+
+
+@ti.func
 def collider_sdf(c: ti.template(), ci, x: vec3, end_pose: bool):
     """phi and normal at x with the collider at the substep's end pose (or start pose)."""
     center = c.center0[ci]
@@ -46,6 +52,18 @@ def approaching(v: vec3, vs: vec3, n: vec3) -> bool:
     """Relative normal velocity (v - vs) . n below zero, beyond the round-off of the speeds
     involved: a relative velocity that is pure round-off must not count as approach."""
     return (v - vs).dot(n) < -APPROACH_EPS * (v.norm() + vs.norm()) - APPROACH_FLOOR
+
+
+@ti.func
+def keep_two_smallest(first, first_id, second, value, value_id):
+    """Running (smallest, its owner, second smallest) over a sequence of values."""
+    if value < first:
+        second = first
+        first = value
+        first_id = value_id
+    elif value < second:
+        second = value
+    return first, first_id, second
 
 
 @ti.func
@@ -76,7 +94,9 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
     (ties: the deepest x1). x0 deeper than the slop: skipped, the last-resort repulsion owns it.
     """
     length = (x1 - x0).norm()
-    clearance = INFINITY
+    clearance = INFINITY  # smallest gap lower bound over colliders, at x1
+    nearest = -1          # the collider it belongs to
+    second = INFINITY     # the smallest over the other colliders
     best_t = 2.0
     best_gap = 0.0
     found = -1
@@ -90,7 +110,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
     for ci in range(n_colliders):
         reach = (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] - r
         if reach >= length:
-            clearance = ti.min(clearance, reach)
+            clearance, nearest, second = keep_two_smallest(clearance, nearest, second, reach, ci)
             continue
         # k = 0: x1 against the end pose; k = 1: x0 against the start pose, only if needed.
         gap1 = 0.0
@@ -101,7 +121,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
             phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
             if k == 0:
                 gap1 = phi - r
-                clearance = ti.min(clearance, gap1)
+                clearance, nearest, second = keep_two_smallest(clearance, nearest, second, gap1, ci)
                 # Interference, or a clear end that the segment may still reach (phi is
                 # 1-Lipschitz, so a gap beyond the segment's length rules a crossing out).
                 candidate = gap1 < length
@@ -130,7 +150,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
                     found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n, vs
                 if (t < alt_t or (t == alt_t and gap1 < alt_gap)) and approaching(v_alt, vs, n):
                     alt, alt_t, alt_gap, alt_n, alt_vs = ci, t, gap1, n, vs
-    return found, found_n, found_vs, alt, alt_n, alt_vs, clearance
+    return found, found_n, found_vs, alt, alt_n, alt_vs, clearance, nearest, second
 
 
 @ti.func

@@ -25,7 +25,8 @@ from .. import validate
 from ..response.collide import WET_LAWS
 from ..response.laws import respond
 from ..scene import particles as P
-from .detection import detect, earliest_approach, start_penetration, surface_velocity
+from ..geometry import kinds
+from .detection import detect, earliest_approach, is_still, start_penetration, surface_velocity
 from .integrate import store, symplectic_euler
 from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
 
@@ -99,7 +100,8 @@ def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, pu
         ci_alt = -1
         n_alt = n
         vs_alt = vs
-        ci, n, vs, ci_alt, n_alt, vs_alt, near = detect(c, n_colliders, x0, x1, v_test, v1, r, slop)
+        ci, n, vs, ci_alt, n_alt, vs_alt, near, nearest, second = detect(c, n_colliders, x0, x1, v_test, v1, r,
+                                                                         slop)
         if ci < 0 and elastic_left > 0 and ci_alt >= 0:
             # Nothing to bounce off, but the candidate velocity meets a contact: go straight to
             # the contact passes with what this sweep found.
@@ -125,9 +127,18 @@ def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, pu
                 restitution = 0.0
             elif contact_done > 0:
                 restitution = 0.0
+            x1_before = x1
             v1 = apply_law(c, ci, v1, n, vs, restitution, wet_law)
             x1 = x0 + push + dt * v1
             contact_done += 1
+            # A still, convex collider cannot be met again after its own contact pass: x1
+            # now lies on the outer side of the plane tangent at the contact (or no deeper
+            # than x0 did). When no other collider is within reach, skip the confirming sweep.
+            others = near if nearest != ci else second
+            if (kinds.is_convex(c.kind[ci]) and is_still(c, ci) and push.norm_sqr() == 0.0
+                    and others - (x1 - x1_before).norm() >= (x1 - x0).norm()):
+                resolved = True
+                break
     if ti.static(failsafe):
         if not resolved:
             # Failsafe (PHYSICS.md 3): stop relative to the collider.
