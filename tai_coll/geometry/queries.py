@@ -13,11 +13,15 @@ from .crossing import world_crossing
 from .sdf import vec3, vec4, world_sdf
 
 mat3 = ti.math.mat3
+# One collider's (1, 8) shape rows, read as 8-vectors like the collider table's columns
+# (g.ishape[ci][k] in every geometry function).
+SHAPE_INTS = ti.types.ndarray(dtype=ti.types.vector(8, ti.i32), ndim=1)
+SHAPE_FLOATS = ti.types.ndarray(dtype=ti.types.vector(8, float), ndim=1)
 
 
 @ti.kernel
 def _sdf_kernel(groups: ti.template(), kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
-                ishape: ti.types.ndarray(), fshape: ti.types.ndarray(), fpool: ti.types.ndarray(),
+                ishape: SHAPE_INTS, fshape: SHAPE_FLOATS, fpool: ti.types.ndarray(),
                 ipool: ti.types.ndarray(), points: ti.types.ndarray(),
                 # outputs
                 phi: ti.types.ndarray(), normal: ti.types.ndarray()):
@@ -31,7 +35,7 @@ def _sdf_kernel(groups: ti.template(), kind: ti.i32, params: vec4, center: vec3,
 
 @ti.kernel
 def _crossing_kernel(groups: ti.template(), kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
-                     ishape: ti.types.ndarray(), fshape: ti.types.ndarray(), fpool: ti.types.ndarray(),
+                     ishape: SHAPE_INTS, fshape: SHAPE_FLOATS, fpool: ti.types.ndarray(),
                      ipool: ti.types.ndarray(), starts: ti.types.ndarray(), ends: ti.types.ndarray(), radius: float,
                      # outputs
                      hit: ti.types.ndarray(), fraction: ti.types.ndarray(),
