@@ -217,35 +217,73 @@ def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity
         # gather
         x0 = p.x[i]
         v0 = p.v[i]
-        r = p.radius[i]
-        slop = slop_fraction * r
         # integrate without collisions
         x1, v1 = symplectic_euler(x0, v0, gravity, dt)
         step = (x1 - x0).norm()
         if clearance > step:
             clearance -= step  # free flight: phi is 1-Lipschitz, nothing within reach
         else:
-            # query and respond
-            push = vec3(0.0, 0.0, 0.0)
-            if ti.static(scheme != SIMPLE):
-                x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
-                                                        repulsion_speed_limit, wet_law)
-            if ti.static(scheme == SIMPLE):
-                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0, 1,
-                                                   True, False, wet_law)
-            elif ti.static(scheme == MICRO):
-                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0,
-                                                   max_iterations, True, True, wet_law)
-            elif ti.static(scheme == ELASTIC_CONTACT):
-                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt,
-                                                   elastic_iterations, max_iterations, False, True, wet_law)
-            else:
-                x1, v1 = resolve_exact_time(p, c, n_colliders, x0 + push, v1, r, slop, dt, max_iterations,
-                                            rest_speed, wet_law)
-                clearance = -1.0
+            x1, v1, clearance = resolve_particle(p, c, i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law,
+                                                 max_iterations, elastic_iterations, repulsion,
+                                                 repulsion_speed_limit, slop_fraction, rest_speed)
         # scatter
         store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
     return clearance
+
+
+@ti.func
+def resolve_particle(p: ti.template(), c: ti.template(), i, n_colliders, x0: vec3, v0: vec3, x1: vec3, v1: vec3,
+                     dt, scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
+                     repulsion, repulsion_speed_limit, slop_fraction, rest_speed):
+    """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
+    time t against the colliders with the chosen scheme. Returns (x1, v1, clearance)."""
+    r = p.radius[i]
+    slop = slop_fraction * r
+    clearance = -1.0
+    push = vec3(0.0, 0.0, 0.0)
+    if ti.static(scheme != SIMPLE):
+        x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
+                                                repulsion_speed_limit, wet_law)
+    if ti.static(scheme == SIMPLE):
+        x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0, 1,
+                                           True, False, wet_law)
+    elif ti.static(scheme == MICRO):
+        x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0,
+                                           max_iterations, True, True, wet_law)
+    elif ti.static(scheme == ELASTIC_CONTACT):
+        x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt,
+                                           elastic_iterations, max_iterations, False, True, wet_law)
+    else:
+        x1, v1 = resolve_exact_time(p, c, n_colliders, x0 + push, v1, r, slop, dt, max_iterations,
+                                    rest_speed, wet_law)
+    return x1, v1, clearance
+
+
+@ti.kernel
+def impulse_resolve_candidates(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(),
+                               flags: scalars(ti.i32), stats: scalars(ti.i32),
+                               kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
+                               rotation0: matrices(), center1: vectors(), rotation1: matrices(),
+                               velocity: vectors(), angular_velocity: vectors(), ishape: vectors(8),
+                               fshape: vectors(8), fpool: scalars(), ipool: scalars(ti.i32), groups: ti.template(),
+                               candidate_x: vectors(), candidate_v: vectors(),
+                               n_particles: ti.i32, n_colliders: ti.i32, dt: float,
+                               scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
+                               elastic_iterations: ti.i32, repulsion: float, repulsion_speed_limit: float,
+                               slop_fraction: float, rest_speed: float,
+                               use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
+    """Resolve candidates that an earlier phase (particle-particle contacts) produced."""
+    for i in range(n_particles):
+        if flags[i] == P.ACTIVE:
+            p = ParticleArrays(x, v, mass, radius, flags, stats)
+            x0 = x[i]
+            v0 = v[i]
+            x1, v1, clearance = resolve_particle(
+                p, ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
+                                  angular_velocity, ishape, fshape, fpool, ipool, groups),
+                i, n_colliders, x0, v0, candidate_x[i], candidate_v[i], dt, scheme, wet_law, max_iterations,
+                elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed)
+            store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
 
 
 class ImpulseSolver:
@@ -289,15 +327,26 @@ class ImpulseSolver:
     def __repr__(self):
         return f"ImpulseSolver(scheme={self.scheme!r}, max_iterations={self.max_iterations})"
 
-    def advance(self, scene, dt: float, substeps: int = 1):
-        """Advance every active particle of `scene` by `substeps` substeps of dt against its
-        colliders, which must keep their current poses for the whole call."""
+    def _options(self, scene, dt):
         gravity = scene.gravity
         rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(gravity)) * dt
         lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
+        return ((SCHEMES[self.scheme], WET_LAWS[self.wet_law], self.max_iterations, self.elastic_iterations,
+                 self.repulsion, self.repulsion_speed_limit, self.slop, rest_speed),
+                (scene.domain is not None, vec3(*lo), vec3(*hi)))
+
+    def resolve_candidates(self, scene, dt: float, candidate_x, candidate_v):
+        """Resolve candidate positions and velocities (ndarrays) from an earlier phase against
+        the colliders and store the result as the particles' new state."""
+        options, domain = self._options(scene, dt)
+        impulse_resolve_candidates(*scene._particles.kernel_args(), *scene._colliders.kernel_args(),
+                                   scene._colliders.groups, candidate_x, candidate_v, scene._particles.count,
+                                   len(scene._colliders), dt, *options, *domain)
+
+    def advance(self, scene, dt: float, substeps: int = 1):
+        """Advance every active particle of `scene` by `substeps` substeps of dt against its
+        colliders, which must keep their current poses for the whole call."""
+        options, domain = self._options(scene, dt)
         impulse_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(), scene._colliders.groups,
-                        scene._particles.count, len(scene._colliders), substeps,
-                        vec3(*gravity), dt, SCHEMES[self.scheme], WET_LAWS[self.wet_law],
-                        self.max_iterations, self.elastic_iterations, self.repulsion,
-                        self.repulsion_speed_limit, self.slop, rest_speed,
-                        scene.domain is not None, vec3(*lo), vec3(*hi))
+                        scene._particles.count, len(scene._colliders), substeps, vec3(*scene.gravity), dt,
+                        *options, *domain)
