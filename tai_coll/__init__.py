@@ -11,17 +11,20 @@
 Importing this package never touches a GPU or Vulkan; `tc.init()` (or first use) starts Taichi.
 """
 
+from . import params
 from .errors import SimulationError
 from .geometry import Box, Capsule, Collider, Cylinder, Plane, Sphere, rotation_matrix
 from .materials import Material
 from .response import collide, collide_pair
+from .response.repulsion import RepulsionField
 from .runtime import RuntimeInfo, init
 from .scene.scene import Scene
-from .solvers import ImpulseSolver
+from .solvers import ImpulseSolver, PenaltySolver
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "Plane", "RuntimeInfo",
-    "Scene", "SimulationError", "Sphere", "collide", "collide_pair", "init", "rotation_matrix",
+    "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PenaltySolver", "Plane",
+    "RepulsionField", "RuntimeInfo", "Scene", "SimulationError", "Sphere", "collide", "collide_pair", "init",
+    "params", "rotation_matrix",
 ]

@@ -1,4 +1,4 @@
-"""Benchmark: tai_coll's impulse solver against the NumPy reference, in one process.
+"""Benchmark: tai_coll's impulse and penalty solvers against the NumPy reference, in one process.
 
     python tools/bench.py                 # 1,000,000 particles, CPU, 2 threads, f32
     python tools/bench.py --quick         # 100,000 particles, a quick check
@@ -9,6 +9,9 @@ random positions above and around a floor plane, a sphere and a rotated box, fal
 under gravity ("falling"); dt = 1/600 s, 10 substeps per frame; the default ImpulseSolver
 scheme (elastic_contact). A second pair of rows starts every particle within 2 mm above a
 surface ("resting": contact-heavy). A particle-step is one particle advanced by one substep.
+The penalty solver runs the same particles, colliders and dt: PenaltySolver(hertz=15),
+critically damped (dt is 1.6x its recommended dt, inside the warning threshold; particles
+rest 1.1 mm deep).
 
 Reported:
 - Taichi compile time of the step kernel (the first `step()`): cold, in a child process
@@ -51,6 +54,7 @@ sys.path.insert(0, str(ROOT))
 RADIUS = 0.005
 DT = 1.0 / 600.0
 SUBSTEPS = 10
+PENALTY_HERTZ = 15.0  # contact frequency of the penalty rows (critically damped)
 
 
 # ----------------------------------------------------------------------------- the scene
@@ -367,14 +371,20 @@ def numpy_case(setup, *, label="numpy reference", layout="falling", reuse_geomet
 
 
 # ----------------------------------------------------------------------------- cases
+def penalty_solver(tc):
+    return tc.PenaltySolver(hertz=PENALTY_HERTZ)
+
+
 def falling_pair(setup):
-    """The benchmark proper: Taichi, then NumPy from the same start over the first frames."""
+    """The benchmark proper: Taichi, then NumPy from the same start over the first frames;
+    the penalty solver on the same scene next to the impulse row."""
     k = setup["args"].numpy_frames
     taichi = taichi_case(setup, label="taichi impulse", keep_state_after=k)
     snapshot = taichi.pop("_snapshot", None)
+    penalty = taichi_case(setup, label="taichi penalty", solver_factory=penalty_solver)
     numpy_row = numpy_case(setup, label="numpy reference", compare_with=snapshot)
     setup["speedups"]["falling"] = speedup(taichi, numpy_row)
-    return [taichi, numpy_row]
+    return [taichi, penalty, numpy_row]
 
 
 def resting_pair(setup):
@@ -382,9 +392,10 @@ def resting_pair(setup):
     k = setup["args"].numpy_frames
     taichi = taichi_case(setup, label="taichi impulse, resting", layout="resting", keep_state_after=k)
     snapshot = taichi.pop("_snapshot", None)
+    penalty = taichi_case(setup, label="taichi penalty, resting", layout="resting", solver_factory=penalty_solver)
     numpy_row = numpy_case(setup, label="numpy reference, resting", layout="resting", compare_with=snapshot)
     setup["speedups"]["resting"] = speedup(taichi, numpy_row)
-    return [taichi, numpy_row]
+    return [taichi, penalty, numpy_row]
 
 
 def speedup(taichi_row, numpy_row) -> dict:

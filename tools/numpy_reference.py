@@ -692,6 +692,8 @@ def solver_options(solver) -> dict:
     """The keyword arguments of NumpyImpulseReference matching a tai_coll ImpulseSolver."""
     if getattr(solver, "scheme", None) != "elastic_contact":
         raise ValueError(f"only the elastic_contact impulse scheme is implemented; got {solver!r}")
+    if getattr(solver, "last_resort", None) is not None:
+        raise ValueError("only the position push is implemented as the last resort; got a repulsion field")
     return dict(max_iterations=solver.max_iterations, elastic_iterations=solver.elastic_iterations,
                 repulsion=solver.repulsion, repulsion_speed_limit=solver.repulsion_speed_limit,
                 slop=solver.slop, wet_law=solver.wet_law)

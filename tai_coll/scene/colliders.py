@@ -31,6 +31,7 @@ class ColliderEntry:
     rotation: np.ndarray
     velocity: np.ndarray
     angular_velocity: np.ndarray
+    repulsion: object = None  # a RepulsionField, read by the penalty solver
 
     @property
     def is_kinematic(self) -> bool:

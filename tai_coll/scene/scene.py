@@ -10,6 +10,7 @@ from .. import runtime, validate
 from ..errors import SimulationError
 from ..geometry.colliders import Collider
 from ..materials import Material
+from ..response.repulsion import RepulsionField
 from ..solvers.impulse import ImpulseSolver
 from . import particles as P
 from .colliders import ColliderEntry, ColliderTable
@@ -22,7 +23,8 @@ class Scene:
     gravity: acceleration in m/s^2 applied to every particle.
     dt: substep length in seconds (> 0). substeps: substeps per frame (>= 1); one `step()`
         advances one frame of substeps * dt seconds.
-    solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact).
+    solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact);
+        `PenaltySolver(...)` resolves them with forces instead.
     domain: optional ((x0, y0, z0), (x1, y1, z1)) box in m. A particle that leaves it is
         frozen where it left and no longer simulated (see `status()`), with a warning.
     """
@@ -50,14 +52,18 @@ class Scene:
         self._particles = P.ParticleStore()
         self._colliders = ColliderTable()
         self._substep_count = 0
+        self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
+        self._solver_warned = set()
 
     # ---------------------------------------------------------------- building
     def add_collider(self, collider: Collider, *, material: Material | None = None, velocity=None,
-                     angular_velocity=None, motion=None) -> ColliderEntry:
+                     angular_velocity=None, motion=None, repulsion: RepulsionField | None = None) -> ColliderEntry:
         """Add a collider. Kinematic motion, if any: a constant `velocity` (m/s) and
         `angular_velocity` (rad/s, about the collider's center), or `motion`, a callable
         t -> (translation, rotation_matrix) applied to the collider's rest pose.
-        Returns the scene's entry for it (current pose, material, velocities)."""
+        repulsion: a `tc.RepulsionField` pushing particles away before they touch (the
+        penalty solver applies it). Returns the scene's entry for it (current pose,
+        material, velocities)."""
         self._check_runtime()
         if not isinstance(collider, Collider):
             raise TypeError(f"collider must be a tai_coll collider (Plane, Sphere, Box, ...); "
@@ -66,8 +72,12 @@ class Scene:
             material = Material()
         elif not isinstance(material, Material):
             raise TypeError(f"material must be a tc.Material; got {type(material).__name__}")
+        if repulsion is not None and not isinstance(repulsion, RepulsionField):
+            raise TypeError(f"repulsion must be a tc.RepulsionField; got {type(repulsion).__name__}")
         motion = make_motion(velocity, angular_velocity, motion)
-        return self._colliders.add(collider, material, motion, self.time)
+        entry = self._colliders.add(collider, material, motion, self.time)
+        entry.repulsion = repulsion
+        return entry
 
     def add_particles(self, *, positions, velocities=None, mass=1.0, radius=0.005) -> slice:
         """Add particles. positions, velocities: (N, 3) in m and m/s (velocities default 0);
@@ -90,6 +100,7 @@ class Scene:
         """Advance `frames` frames of `substeps` substeps of `dt` seconds."""
         self._check_runtime()
         frames = validate.integer("frames", frames, low=0)
+        self._check_solver()
         kinematic = self._colliders.has_kinematic
         for _ in range(frames):
             if kinematic:
@@ -103,15 +114,32 @@ class Scene:
                 self._substep_count += self.substeps
             self._check_health()
 
+    def _check_solver(self):
+        """Let the solver look at the scene before it steps (the penalty solver compares dt
+        with its stiffest contact) whenever particles or colliders were added; each
+        warning is given once."""
+        check = getattr(self.solver, "check", None)
+        counts = (self.num_particles, len(self._colliders))
+        if check is None or counts == self._solver_checked:
+            return
+        self._solver_checked = counts
+        for message in check(self):
+            if message not in self._solver_warned:
+                self._solver_warned.add(message)
+                warnings.warn(message, RuntimeWarning, stacklevel=3)
+
     def _check_health(self):
         fresh = self._particles.collect_stats()
         totals = self._particles.totals
         if fresh["non_finite"]:
             bad = np.flatnonzero(self.status() == "non_finite")
+            advice = getattr(self.solver, "stability_advice", None)
+            advice = advice(self) if advice is not None else None
             raise SimulationError(
                 f"{fresh['non_finite']} particle(s) turned NaN or inf and were frozen at their last finite "
                 f"state (indices {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}) at t = {self.time:.6g} s. "
-                f"Check their velocities and the colliders' motion; a smaller dt (now {self.dt:g} s) may help.")
+                f"Check their velocities and the colliders' motion; a smaller dt (now {self.dt:g} s) may help"
+                + (f": {advice}." if advice else "."))
         if fresh["left_domain"]:
             warnings.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
                           f"frozen ({totals['left_domain']} in all); see Scene.status()", RuntimeWarning,

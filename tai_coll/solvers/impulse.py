@@ -24,6 +24,8 @@ import taichi as ti
 from .. import validate
 from ..response.collide import WET_LAWS
 from ..response.laws import respond
+from ..response.penalty import FIELD_NONE, apply_repulsion
+from ..response.repulsion import RepulsionField, pack
 from ..scene import particles as P
 from ..geometry import kinds
 from .detection import detect, earliest_approach, is_still, start_penetration, surface_velocity
@@ -31,6 +33,9 @@ from .integrate import store, symplectic_euler
 from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
 
 vec3 = ti.math.vec3
+# The last resort's settings as one kernel argument `repulsion`: the push fraction, then a
+# repulsion field's kind (0: none, push instead), profile, strength, decay and range.
+last_resort6 = ti.types.vector(6, float)
 
 SIMPLE = 0
 MICRO = 1
@@ -49,19 +54,26 @@ def apply_law(c: ti.template(), ci, v: vec3, n: vec3, vs: vec3, restitution, wet
 
 @ti.func
 def repel_start_penetrations(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, x1: vec3,
-                             v1: vec3, r, slop, dt, repulsion, speed_limit, wet_law: ti.template()):
+                             v1: vec3, r, m, slop, dt, repulsion: last_resort6, speed_limit,
+                             wet_law: ti.template()):
     """Last resort (PHYSICS.md 3, seed 001): a particle already inside a collider at time t
     keeps its penetration for this substep and is pushed out along the normal by
-    `repulsion` x depth (at most speed_limit x dt). The push moves the position only; the
+    repulsion[0] x depth (at most speed_limit x dt). The push moves the position only; the
     velocity gets the inelastic law (e = 0, friction as usual), so a particle freed from a
-    collider does not fly off with the push as velocity."""
+    collider does not fly off with the push as velocity. With a repulsion field in
+    repulsion[1:] (seed 002), the field acts on the velocity, at gap -depth, instead."""
     push = vec3(0.0, 0.0, 0.0)
     for ci in range(n_colliders):
         inside, depth, n, point = start_penetration(c, ci, x0, r, slop)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
             v1 = apply_law(c, ci, v1, n, vs, 0.0, wet_law)
-            push += ti.min(repulsion * depth, speed_limit * dt) * n
+            field_kind = ti.cast(repulsion[1], ti.i32)
+            if field_kind == FIELD_NONE:
+                push += ti.min(repulsion[0] * depth, speed_limit * dt) * n
+            else:
+                v1 = vs + apply_repulsion(v1 - vs, n, -depth, m, dt, field_kind, ti.cast(repulsion[2], ti.i32),
+                                          repulsion[3], repulsion[4], repulsion[5])
             x1 = x0 + dt * v1 + push
             ti.atomic_add(p.stats[P.STAT_REPULSION], 1)
     return x1, v1, push
@@ -188,7 +200,7 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     ipool: scalars(ti.i32), groups: ti.template(),
                     n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
                     scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
-                    elastic_iterations: ti.i32, repulsion: float, repulsion_speed_limit: float,
+                    elastic_iterations: ti.i32, repulsion: last_resort6, repulsion_speed_limit: float,
                     slop_fraction: float, rest_speed: float,
                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
     # Particles are independent of each other here, so with colliders that hold still during
@@ -242,8 +254,8 @@ def resolve_particle(p: ti.template(), c: ti.template(), i, n_colliders, x0: vec
     clearance = -1.0
     push = vec3(0.0, 0.0, 0.0)
     if ti.static(scheme != SIMPLE):
-        x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, slop, dt, repulsion,
-                                                repulsion_speed_limit, wet_law)
+        x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, p.mass[i], slop, dt,
+                                                repulsion, repulsion_speed_limit, wet_law)
     if ti.static(scheme == SIMPLE):
         x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0, 1,
                                            True, False, wet_law)
@@ -269,7 +281,7 @@ def impulse_resolve_candidates(x: vectors(), v: vectors(), mass: scalars(), radi
                                candidate_x: vectors(), candidate_v: vectors(),
                                n_particles: ti.i32, n_colliders: ti.i32, dt: float,
                                scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
-                               elastic_iterations: ti.i32, repulsion: float, repulsion_speed_limit: float,
+                               elastic_iterations: ti.i32, repulsion: last_resort6, repulsion_speed_limit: float,
                                slop_fraction: float, rest_speed: float,
                                use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
     """Resolve candidates that an earlier phase (particle-particle contacts) produced."""
@@ -300,6 +312,11 @@ class ImpulseSolver:
         substep: this fraction of the depth is recovered per substep, by moving the position
         along the normal (the velocity gets the inelastic law), at most
         repulsion_speed_limit * dt per substep (m/s).
+    last_resort: None (the push above) or a `tc.RepulsionField` acting instead on the
+        velocity of a particle found inside, at gap -depth (seed 002). A velocity field of
+        strength s lets it leave at s m/s or more, a force field accelerates it out.
+        Colliders' own repulsion fields (`add_collider(repulsion=...)`) are for the penalty
+        solver; this solver ignores them, with a warning.
     slop: penetration, as a fraction of the particle radius, below which a particle still
         counts as outside (absorbs round-off at resting contacts).
     rest_speed: exact_time only: approach speeds (m/s) below this get e = 0. None: twice the
@@ -309,7 +326,8 @@ class ImpulseSolver:
 
     def __init__(self, *, scheme: str = "elastic_contact", max_iterations: int = 8,
                  elastic_iterations: int = 1, repulsion: float = 0.1, repulsion_speed_limit: float = 1.0,
-                 slop: float = 1e-3, rest_speed: float | None = None, wet_law: str = "linear"):
+                 slop: float = 1e-3, rest_speed: float | None = None, wet_law: str = "linear",
+                 last_resort: RepulsionField | None = None):
         if scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {tuple(SCHEMES)}; got {scheme!r}")
         if wet_law not in WET_LAWS:
@@ -323,16 +341,28 @@ class ImpulseSolver:
         self.slop = validate.real("slop", slop, low=0.0, high=0.5)
         self.rest_speed = validate.real("rest_speed", rest_speed, low=0.0, allow_none=True)
         self.wet_law = wet_law
+        if last_resort is not None and not isinstance(last_resort, RepulsionField):
+            raise TypeError(f"last_resort must be None or a tc.RepulsionField; got {type(last_resort).__name__}")
+        self.last_resort = last_resort
 
     def __repr__(self):
         return f"ImpulseSolver(scheme={self.scheme!r}, max_iterations={self.max_iterations})"
+
+    def check(self, scene) -> list[str]:
+        """Warnings for the scene as it stands (called by Scene before stepping)."""
+        fielded = [k for k, e in enumerate(scene.colliders) if e.repulsion is not None]
+        if not fielded:
+            return []
+        return [f"ImpulseSolver ignores the repulsion fields of colliders {fielded}; they act with "
+                "tc.PenaltySolver. ImpulseSolver(last_resort=tc.RepulsionField(...)) uses one as its last resort."]
 
     def _options(self, scene, dt):
         gravity = scene.gravity
         rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(gravity)) * dt
         lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
         return ((SCHEMES[self.scheme], WET_LAWS[self.wet_law], self.max_iterations, self.elastic_iterations,
-                 self.repulsion, self.repulsion_speed_limit, self.slop, rest_speed),
+                 last_resort6(self.repulsion, *pack(self.last_resort)), self.repulsion_speed_limit, self.slop,
+                 rest_speed),
                 (scene.domain is not None, vec3(*lo), vec3(*hi)))
 
     def resolve_candidates(self, scene, dt: float, candidate_x, candidate_v):

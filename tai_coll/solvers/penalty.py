@@ -1,0 +1,292 @@
+"""Penalty-based contact resolution: PHYSICS.md 4, seed 002. Forces instead of impulses.
+
+One substep of one particle reads as: gather its state; sum the forces of every collider
+within reach at the start of the substep (a zero-length spring-damper at the point of entry
+while it penetrates, friction bounded by mu |f_n|, and the collider's repulsion field if it
+has one); integrate with symplectic Euler, v1 = v0 + dt (g + F / m), x1 = x0 + dt v1; scatter.
+Optionally the normal spring-damper is integrated by backward Euler (stable at any dt,
+damped).
+
+The contact forces are summed in a running velocity: v1 starts at v0 + dt g and each
+contact adds dt f / m in turn, so the friction of a contact sees every force before it
+(gravity and its own normal force on an incline, say) and can hold the particle exactly.
+Like the impulse solver, particles are independent, one parallel loop runs over them, and
+with colliders that hold still one launch runs several substeps and carries each particle's
+clearance: while it is farther from every collider (and its field) than it moves, the
+substep is free flight.
+"""
+
+import weakref
+
+import numpy as np
+import taichi as ti
+
+from .. import params, runtime, validate
+from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SYMPLECTIC_EULER, apply_repulsion, friction_force,
+                                spring_damper, spring_damper_implicit)
+from ..geometry.colliders import Collider
+from ..response.repulsion import pack
+from ..scene import particles as P
+from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
+from .detection import BOUND_SLOT, INFINITY, carried, collider_sdf, surface_velocity
+from .integrate import store
+
+vec3 = ti.math.vec3
+
+INTEGRATORS = {"symplectic_euler": SYMPLECTIC_EULER, "backward_euler": BACKWARD_EULER}
+
+# Columns of the solver's per-collider table (one row per collider of the scene).
+STATIC_FRICTION, KINETIC_FRICTION, VISCOUS_FRICTION = 0, 1, 2
+FIELD_KIND, FIELD_PROFILE, FIELD_STRENGTH, FIELD_DECAY, FIELD_RANGE = 3, 4, 5, 6, 7
+TABLE_WIDTH = 8
+
+#: The scene warns when dt exceeds this multiple of the recommended dt (always inside the
+#: explicit stability limit, which lies at least 2.7 recommended dt away: see params).
+WARN_FACTOR = 2.0
+
+
+@ti.func
+def contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio):
+    """Per particle k (N/m) and D (N s/m). stiffness_per_mass: `stiffness` holds (2 pi f)^2,
+    k = m (2 pi f)^2; damping_is_ratio: `damping` holds zeta, D = 2 zeta sqrt(m k)."""
+    k = stiffness
+    if stiffness_per_mass != 0:
+        k = m * stiffness
+    d = damping
+    if damping_is_ratio != 0:
+        d = 2.0 * damping * ti.sqrt(m * k)
+    return k, d
+
+
+@ti.func
+def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: vec3, v0: vec3, v1: vec3, m, r,
+                     gravity: vec3, dt, k, d, integrator):
+    """Every collider's forces on a particle at (x0, v0), colliders at their start pose.
+    Returns (v1 with the forces applied, the clearance: a lower bound on the distance from
+    the particle's surface to the nearest collider's reach)."""
+    clearance = INFINITY
+    for ci in range(n_colliders):
+        row = table[ci]
+        field_range = row[FIELD_RANGE]
+        # Outside the bounding sphere and the field: no force (phi is 1-Lipschitz). A plane's
+        # "sphere" is 1e30 m: a particle blown that far still meets it (and its run is
+        # reported non-finite, instead of flying on for ever).
+        bound = c.params[ci][BOUND_SLOT]
+        reach = (x0 - c.center0[ci]).norm() - bound - r
+        if reach > field_range and bound < Collider.UNBOUNDED:
+            clearance = ti.min(clearance, reach - field_range)
+            continue
+        phi, n = collider_sdf(c, ci, x0, False)
+        gap = phi - r
+        clearance = ti.min(clearance, gap - field_range)
+        field_kind = ti.cast(row[FIELD_KIND], ti.i32)
+        if gap < 0.0 or (field_kind != FIELD_NONE and gap < field_range):
+            # query: the surface velocity at the closest surface point (relative velocity)
+            vs = surface_velocity(c, ci, carried(c, ci, x0 - phi * n, 0.0))
+            if gap < 0.0:
+                # respond: PHYSICS.md 4, the spring-damper at the point of entry, depth = r - phi
+                vn = (v0 - vs).dot(n)
+                fn = 0.0
+                if integrator == BACKWARD_EULER:
+                    fn = spring_damper_implicit(-gap, vn, gravity.dot(n), m, k, d, dt)
+                else:
+                    fn = spring_damper(-gap, vn, k, d)
+                v1 += (dt * fn / m) * n
+                # friction against the tangential velocity every force so far would leave
+                v_rel = v1 - vs
+                vt = v_rel - v_rel.dot(n) * n
+                v1 += (dt / m) * friction_force(vt, fn, m, dt, row[STATIC_FRICTION], row[KINETIC_FRICTION],
+                                                row[VISCOUS_FRICTION])
+            if field_kind != FIELD_NONE:
+                # seed 002: the collider's repulsion field
+                v1 = vs + apply_repulsion(v1 - vs, n, gap, m, dt, field_kind, ti.cast(row[FIELD_PROFILE], ti.i32),
+                                          row[FIELD_STRENGTH], row[FIELD_DECAY], field_range)
+    return v1, clearance
+
+
+@ti.func
+def penalty_particle(p: ti.template(), c: ti.template(), table: ti.template(), i, n_colliders, gravity: vec3,
+                     dt, stiffness, stiffness_per_mass, damping, damping_is_ratio, integrator,
+                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, clearance):
+    """One substep of particle i; returns its clearance after the substep (<= 0: unknown)."""
+    if p.flags[i] == P.ACTIVE:
+        # gather
+        x0 = p.x[i]
+        v0 = p.v[i]
+        m = p.mass[i]
+        r = p.radius[i]
+        # forces: gravity, then the colliders within reach (none while the clearance lasts)
+        v1 = v0 + dt * gravity
+        if clearance <= 0.0:
+            k, d = contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio)
+            v1, clearance = contact_velocity(c, table, n_colliders, x0, v0, v1, m, r, gravity, dt, k, d,
+                                             integrator)
+        # integrate: symplectic Euler, x1 = x0 + dt v1
+        x1 = x0 + dt * v1
+        clearance -= (x1 - x0).norm()
+        # scatter
+        store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
+    return clearance
+
+
+@ti.kernel
+def penalty_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(), flags: scalars(ti.i32),
+                    stats: scalars(ti.i32),
+                    kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
+                    rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
+                    angular_velocity: vectors(), ishape: vectors(8), fshape: vectors(8), fpool: scalars(),
+                    ipool: scalars(ti.i32), groups: ti.template(),
+                    table: vectors(TABLE_WIDTH),
+                    n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
+                    stiffness: float, stiffness_per_mass: ti.i32, damping: float, damping_is_ratio: ti.i32,
+                    integrator: ti.i32, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
+    # Particles are independent: with colliders that hold still during the call, one launch
+    # runs every substep of a particle in registers, carrying its clearance.
+    for i in range(n_particles):
+        clearance = -1.0
+        for _ in range(n_substeps):
+            clearance = penalty_particle(ParticleArrays(x, v, mass, radius, flags, stats),
+                                         ColliderArrays(kind, params, material, center0, rotation0, center1,
+                                                        rotation1, velocity, angular_velocity, ishape, fshape,
+                                                        fpool, ipool, groups),
+                                         table, i, n_colliders, gravity, dt, stiffness, stiffness_per_mass,
+                                         damping, damping_is_ratio, integrator, use_domain, domain_lo, domain_hi,
+                                         clearance)
+
+
+class PenaltySolver:
+    """Resolve particle-collider contacts with penalty forces (PHYSICS.md 4, seed 002).
+
+    A penetrating particle (depth = r - phi > 0) feels a zero-length spring-damper at the
+    point of entry, f_n = k depth - D (v_rel . n), only pushing, with v_rel its velocity
+    relative to the collider's surface. Friction is a force: Coulomb, static until the
+    traction exceeds static_friction |f_n|, then kinetic friction |f_n| plus viscous
+    wet_friction |f_n| |v_t| against the sliding (each collider's tc.Material). Colliders
+    added with `repulsion=tc.RepulsionField(...)` also push at a distance.
+
+    Give the stiffness one of two ways:
+    stiffness: k in N/m, the same for every particle (heavier particles sink deeper); or
+    hertz: the contact's natural frequency f in Hz, k = m (2 pi f)^2 per particle, so one
+        setting gives every mass the same period 1/f and the same resting depth g/(2 pi f)^2.
+    and the damping one of two ways (neither: critical damping):
+    damping: D in N s/m, the same for every particle (0: undamped, elastic); or
+    damping_ratio: zeta, D = 2 zeta sqrt(m k) per particle (1: critical, < 1 bouncy).
+    integrator: "symplectic_euler" (default; explicit, accurate for dt well below the
+        contact's smallest characteristic time, see `tc.params`) or "backward_euler" (the
+        normal spring-damper implicit along n: stable at any dt, but it damps, so bounces
+        lose height and resting depths are right while rebounds are not; friction and
+        fields stay explicit).
+
+    A contact that may only push cannot brake a particle on its way out: a critically
+    damped one stops a particle without rebound while gravity does the last of the braking
+    (impact speeds below about 30 g sqrt(m/k)); faster, it lets the particle leave at up to
+    e^-2 = 13.5 % of its impact speed (damping_ratio 2: 4.8 %, 5: 0.9 %).
+
+    The scene warns once, before its first step, when dt exceeds 2x the recommended dt of
+    its stiffest contact (its lightest particle); `contact_params(mass)` gives the numbers.
+    The impulse solver's material fields apply here too (restitution is ignored: the
+    bounce comes from the damping).
+    """
+
+    def __init__(self, *, stiffness: float | None = None, damping: float | None = None,
+                 hertz: float | None = None, damping_ratio: float | None = None,
+                 integrator: str = "symplectic_euler"):
+        if (stiffness is None) == (hertz is None):
+            raise ValueError("give exactly one of stiffness (N/m) or hertz (Hz); "
+                             f"got stiffness={stiffness!r}, hertz={hertz!r}")
+        if damping is not None and damping_ratio is not None:
+            raise ValueError("give at most one of damping (N s/m) or damping_ratio; "
+                             f"got damping={damping!r}, damping_ratio={damping_ratio!r}")
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"integrator must be one of {tuple(INTEGRATORS)}; got {integrator!r}")
+        self.stiffness = validate.real("stiffness", stiffness, low=0.0, low_open=True, allow_none=True)
+        self.hertz = validate.real("hertz", hertz, low=0.0, low_open=True, allow_none=True)
+        self.damping = validate.real("damping", damping, low=0.0, allow_none=True)
+        self.damping_ratio = validate.real("damping_ratio", damping_ratio, low=0.0, allow_none=True)
+        self.integrator = integrator
+        self._tables = weakref.WeakKeyDictionary()  # scene -> (key, per-collider ndarray)
+
+    def __repr__(self):
+        k = f"stiffness={self.stiffness:g}" if self.stiffness is not None else f"hertz={self.hertz:g}"
+        d = ("damping=critical" if self.damping is None and self.damping_ratio is None else
+             f"damping={self.damping:g}" if self.damping is not None else f"damping_ratio={self.damping_ratio:g}")
+        return f"PenaltySolver({k}, {d}, integrator={self.integrator!r})"
+
+    # ---------------------------------------------------------------- constants
+    def contact_stiffness(self, mass: float) -> float:
+        """k (N/m) for a particle of this mass."""
+        if self.stiffness is not None:
+            return self.stiffness
+        return params.stiffness_from_hertz(mass, self.hertz)
+
+    def contact_damping(self, mass: float) -> float:
+        """D (N s/m) for a particle of this mass."""
+        if self.damping is not None:
+            return self.damping
+        ratio = 1.0 if self.damping_ratio is None else self.damping_ratio
+        return params.damping_from_ratio(mass, self.contact_stiffness(mass), ratio)
+
+    def contact_params(self, mass: float) -> params.ContactParams:
+        """The 1-D contact model's numbers for a particle of this mass (tc.params.contact)."""
+        return params.contact(mass, self.contact_stiffness(mass), self.contact_damping(mass))
+
+    def _stiffest(self, scene) -> params.ContactParams | None:
+        """The contact with the smallest characteristic time: the lightest particle's."""
+        if scene.num_particles == 0:
+            return None
+        return self.contact_params(float(np.min(scene.masses())))
+
+    def check(self, scene) -> list[str]:
+        """Warnings for the scene as it stands (called by Scene before stepping)."""
+        if self.integrator == "backward_euler" or len(scene.colliders) == 0:
+            return []
+        contact = self._stiffest(scene)
+        if contact is None or scene.dt <= WARN_FACTOR * contact.recommended_dt:
+            return []
+        return [f"PenaltySolver: dt = {scene.dt:.3g} s is {scene.dt / contact.recommended_dt:.1f}x the recommended "
+                f"dt {contact.recommended_dt:.3g} s of the stiffest contact (k = {contact.stiffness:.4g} N/m, "
+                f"m = {contact.mass:.4g} kg, D = {contact.damping:.4g} N s/m, {contact.regime}, natural period "
+                f"{contact.natural_period:.3g} s, smallest characteristic time {contact.smallest_time:.3g} s); "
+                f"explicit integration diverges beyond dt = {contact.stability_limit:.3g} s. Use "
+                f"dt <= {contact.recommended_dt:.3g} s, a softer contact, or integrator='backward_euler'."]
+
+    def stability_advice(self, scene) -> str | None:
+        """What to change when a run went non-finite (Scene adds it to its error)."""
+        contact = self._stiffest(scene)
+        if contact is None:
+            return None
+        return (f"the penalty contacts' recommended dt is {contact.recommended_dt:.3g} s (k = "
+                f"{contact.stiffness:.4g} N/m, m = {contact.mass:.4g} kg, {contact.regime}; explicit integration "
+                f"diverges beyond {contact.stability_limit:.3g} s)")
+
+    # ---------------------------------------------------------------- stepping
+    def _collider_table(self, scene):
+        """Friction coefficients and repulsion fields of the scene's colliders, one row each,
+        uploaded again only when colliders or their materials change."""
+        entries = scene.colliders
+        key = tuple((e.material, id(e.repulsion)) for e in entries)
+        cached = self._tables.get(scene)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        rows = np.zeros((max(len(entries), 1), TABLE_WIDTH), dtype=runtime.float_dtype())
+        for row, e in zip(rows, entries):
+            m = e.material
+            row[:] = (m.static_friction, m.friction, m.wet_friction, *pack(e.repulsion))
+        table = ti.Vector.ndarray(TABLE_WIDTH, float, shape=len(rows))
+        table.from_numpy(rows)
+        self._tables[scene] = (key, table)
+        return table
+
+    def advance(self, scene, dt: float, substeps: int = 1):
+        """Advance every active particle of `scene` by `substeps` substeps of dt against its
+        colliders, which must keep their current poses for the whole call."""
+        table = self._collider_table(scene)
+        per_mass = self.stiffness is None
+        stiffness = (2.0 * np.pi * self.hertz) ** 2 if per_mass else self.stiffness
+        is_ratio = self.damping is None
+        damping = (1.0 if self.damping_ratio is None else self.damping_ratio) if is_ratio else self.damping
+        lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
+        penalty_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(), scene._colliders.groups,
+                        table, scene._particles.count, len(scene._colliders), substeps, vec3(*scene.gravity), dt,
+                        stiffness, int(per_mass), damping, int(is_ratio), INTEGRATORS[self.integrator],
+                        scene.domain is not None, vec3(*lo), vec3(*hi))
