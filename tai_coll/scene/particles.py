@@ -28,6 +28,7 @@ class ParticleStore:
     def __init__(self, capacity: int = 1024):
         self.count = 0
         self.capacity = 0
+        self.max_radius = 0.0  # kept on the host: the hash grid's cell size needs it every substep
         # Kernels count events in a small i32 array; `collect_stats` drains it into Python
         # integers after every frame, so long runs of many particles cannot overflow it.
         self.stats = ti.ndarray(ti.i32, shape=len(STAT_NAMES))
@@ -63,6 +64,8 @@ class ParticleStore:
                              ("flags", np.zeros(n, dtype=np.int32))):
             self._write_range(name, start, values)
         self.count += n
+        if n:
+            self.max_radius = max(self.max_radius, float(np.max(radius)))
         return slice(start, start + n)
 
     def read(self, name: str) -> np.ndarray:

@@ -51,6 +51,7 @@ class Scene:
             self.domain = (lo, hi)
         self._particles = P.ParticleStore()
         self._colliders = ColliderTable()
+        self._pairs = None  # particle-particle collisions, off until enabled
         self._substep_count = 0
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
@@ -95,6 +96,32 @@ class Scene:
         r = validate.per_item("radius", radius, n)
         return self._particles.add(x, v, m, r)
 
+    def enable_particle_collisions(self, *, material: Material | None = None, **options):
+        """Let particles collide with each other (PHYSICS.md 2, two movable bodies): impulses
+        between pairs found by a spatial hash grid each substep, with restitution and
+        friction from `material`, then the colliders. Options: iterations (contact passes,
+        default 4), projection_iterations (4), relaxation (1.5), margin (0.5 of the largest
+        radius). See tai_coll.solvers.pairs. Returns the settings object."""
+        self._check_runtime()
+        if not hasattr(self.solver, "resolve_candidates"):
+            raise TypeError(f"particle collisions need a solver that resolves candidates "
+                            f"(tc.ImpulseSolver); got {type(self.solver).__name__}")
+        from ..solvers.pairs import ParticleCollisions
+
+        self._pairs = ParticleCollisions(material=material, **options)
+        return self._pairs
+
+    def particle_overlap(self) -> dict:
+        """Overlap between touching particles now, relative to the smaller radius of each
+        pair: {"max", "mean" (over overlapping pairs), "pairs"}."""
+        from ..solvers.pairs import ParticleCollisions
+
+        pairs = self._pairs if self._pairs is not None else ParticleCollisions()
+        return pairs.overlap(self)
+
+    def _max_radius(self) -> float:
+        return self._particles.max_radius
+
     # ---------------------------------------------------------------- running
     def step(self, frames: int = 1) -> None:
         """Advance `frames` frames of `substeps` substeps of `dt` seconds."""
@@ -103,7 +130,14 @@ class Scene:
         self._check_solver()
         kinematic = self._colliders.has_kinematic
         for _ in range(frames):
-            if kinematic:
+            if self._pairs is not None and self._particles.count:
+                # Particles interact: every substep is its own sequence of phases.
+                for _ in range(self.substeps):
+                    if kinematic:
+                        self._colliders.advance(self.time, self.dt)
+                    self._pairs.substep(self, self.dt)
+                    self._substep_count += 1
+            elif kinematic:
                 # Colliders move: new poses before every substep.
                 for _ in range(self.substeps):
                     self._colliders.advance(self.time, self.dt)

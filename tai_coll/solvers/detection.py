@@ -154,6 +154,28 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
 
 
 @ti.func
+def keep_out(c: ti.template(), n_colliders, x0: vec3, x1: vec3, r):
+    """Move x1 out along each collider's normal to no deeper than x0 was (or to the surface):
+    for positions that another phase moved (particle-particle projection), where no velocity
+    approaches the collider and the contact passes would leave the penetration alone."""
+    for ci in range(n_colliders):
+        if (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] < r:
+            gap1 = 0.0
+            n1 = vec3(0.0, 1.0, 0.0)
+            for k in range(2):
+                phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
+                if k == 0:
+                    gap1, n1 = phi - r, n
+                    if gap1 >= 0.0:
+                        break
+                else:
+                    allowed = ti.min(phi - r, 0.0)
+                    if gap1 < allowed:
+                        x1 += (allowed - gap1) * n1
+    return x1
+
+
+@ti.func
 def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
     """If x0 was inside collider ci at time t (beyond the slop), return (True, depth, normal,
     contact point) measured against the end pose; else (False, ...)."""

@@ -28,7 +28,7 @@ from ..response.penalty import FIELD_NONE, apply_repulsion
 from ..response.repulsion import RepulsionField, pack
 from ..scene import particles as P
 from ..geometry import kinds
-from .detection import detect, earliest_approach, is_still, start_penetration, surface_velocity
+from .detection import detect, earliest_approach, is_still, keep_out, start_penetration, surface_velocity
 from .integrate import store, symplectic_euler
 from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
 
@@ -283,19 +283,45 @@ def impulse_resolve_candidates(x: vectors(), v: vectors(), mass: scalars(), radi
                                scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
                                elastic_iterations: ti.i32, repulsion: last_resort6, repulsion_speed_limit: float,
                                slop_fraction: float, rest_speed: float,
-                               use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
-    """Resolve candidates that an earlier phase (particle-particle contacts) produced."""
+                               use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
+                               contact_only: ti.template(), store_state: ti.template()):
+    """Resolve candidates that another phase (particle-particle contacts) produced: with the
+    chosen scheme, or with contact passes only (e = 0) when contact_only; then either store
+    them as the new state, or write them back as candidates for the next phase."""
     for i in range(n_particles):
-        if flags[i] == P.ACTIVE:
-            p = ParticleArrays(x, v, mass, radius, flags, stats)
-            x0 = x[i]
-            v0 = v[i]
-            x1, v1, clearance = resolve_particle(
-                p, ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
-                                  angular_velocity, ishape, fshape, fpool, ipool, groups),
-                i, n_colliders, x0, v0, candidate_x[i], candidate_v[i], dt, scheme, wet_law, max_iterations,
-                elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed)
+        resolve_candidate(ParticleArrays(x, v, mass, radius, flags, stats),
+                          ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
+                                         angular_velocity, ishape, fshape, fpool, ipool, groups),
+                          i, n_colliders, candidate_x, candidate_v, dt, scheme, wet_law, max_iterations,
+                          elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed,
+                          use_domain, domain_lo, domain_hi, contact_only, store_state)
+
+
+@ti.func
+def resolve_candidate(p: ti.template(), c: ti.template(), i, n_colliders, candidate_x: ti.template(),
+                      candidate_v: ti.template(), dt, scheme: ti.template(), wet_law: ti.template(), max_iterations,
+                      elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed,
+                      use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, contact_only: ti.template(),
+                      store_state: ti.template()):
+    if p.flags[i] == P.ACTIVE:
+        x0 = p.x[i]
+        v0 = p.v[i]
+        x1 = candidate_x[i]
+        v1 = candidate_v[i]
+        if ti.static(contact_only):
+            r = p.radius[i]
+            x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
+                                               slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
+            x1 = keep_out(c, n_colliders, x0, x1, r)
+        else:
+            x1, v1, clearance = resolve_particle(p, c, i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law,
+                                                 max_iterations, elastic_iterations, repulsion,
+                                                 repulsion_speed_limit, slop_fraction, rest_speed)
+        if ti.static(store_state):
             store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
+        else:
+            candidate_x[i] = x1
+            candidate_v[i] = v1
 
 
 class ImpulseSolver:
@@ -365,13 +391,15 @@ class ImpulseSolver:
                  rest_speed),
                 (scene.domain is not None, vec3(*lo), vec3(*hi)))
 
-    def resolve_candidates(self, scene, dt: float, candidate_x, candidate_v):
-        """Resolve candidate positions and velocities (ndarrays) from an earlier phase against
-        the colliders and store the result as the particles' new state."""
+    def resolve_candidates(self, scene, dt: float, candidate_x, candidate_v, *, contact_only=False,
+                           store_state=True):
+        """Resolve candidate positions and velocities (ndarrays) from another phase against
+        the colliders: with the scheme, or contact passes only; store the result as the
+        particles' new state, or write it back to the candidate arrays."""
         options, domain = self._options(scene, dt)
         impulse_resolve_candidates(*scene._particles.kernel_args(), *scene._colliders.kernel_args(),
                                    scene._colliders.groups, candidate_x, candidate_v, scene._particles.count,
-                                   len(scene._colliders), dt, *options, *domain)
+                                   len(scene._colliders), dt, *options, *domain, contact_only, store_state)
 
     def advance(self, scene, dt: float, substeps: int = 1):
         """Advance every active particle of `scene` by `substeps` substeps of dt against its

@@ -1,0 +1,142 @@
+"""Particles hitting particles (PHYSICS.md 2, two movable bodies), by closed form; and the
+hash grid against brute force."""
+
+import numpy as np
+import pytest
+
+import tai_coll as tc
+from tai_coll.neighbors import HashGrid
+
+
+def pair_scene(*, restitution, friction=0.0, dt=1e-4, substeps=10):
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=substeps)
+    scene.enable_particle_collisions(material=tc.Material(restitution=restitution, friction=friction))
+    return scene
+
+
+def test_head_on_masses_one_and_three():
+    # Textbook: v_a' = (m_a v_a + m_b v_b - m_b e (v_a - v_b)) / (m_a + m_b), and for b swap.
+    ma, mb, va, vb, e = 1.0, 3.0, 1.0, -1.0, 0.5
+    scene = pair_scene(restitution=e)
+    scene.add_particles(positions=[[-0.1, 0, 0], [0.1, 0, 0]], velocities=[[va, 0, 0], [vb, 0, 0]],
+                        mass=np.array([ma, mb]), radius=0.05)
+    scene.step(150)
+    v = scene.velocities()
+    expected_a = (ma * va + mb * vb - mb * e * (va - vb)) / (ma + mb)
+    expected_b = (ma * va + mb * vb + ma * e * (va - vb)) / (ma + mb)
+    assert v[0, 0] == pytest.approx(expected_a, rel=0.01)
+    assert v[1, 0] == pytest.approx(expected_b, rel=0.01)
+    momentum = ma * v[0] + mb * v[1]
+    assert np.allclose(momentum, [ma * va + mb * vb, 0, 0], atol=1e-12)
+
+
+def test_glancing_collision_with_friction_follows_the_pair_law():
+    # Equal masses, impact parameter b: the contact normal makes asin(b / (2r)) with the
+    # x axis. The outcome is the pair law along that normal (tc.collide_pair).
+    r, b, e, mu = 0.05, 0.05, 0.8, 0.2
+    scene = pair_scene(restitution=e, friction=mu, dt=2e-5)
+    scene.add_particles(positions=[[-0.095, b, 0], [0.0, 0.0, 0.0]], velocities=[[2.0, 0, 0], [0, 0, 0]], radius=r)
+    scene.step(60)
+    v = scene.velocities()
+    angle = np.arcsin(b / (2 * r))
+    normal = np.array([-np.cos(angle), np.sin(angle), 0.0])  # from b to a at contact
+    va, vb = tc.collide_pair([2.0, 0, 0], [0, 0, 0], normal, 1.0, 1.0, restitution=e, friction=mu)
+    assert np.allclose(v[0], va, atol=0.02 * 2.0)
+    assert np.allclose(v[1], vb, atol=0.02 * 2.0)
+    assert np.allclose(v.sum(axis=0), [2.0, 0, 0], atol=1e-12)  # momentum, to round-off
+    # friction took tangential speed: b's velocity is not along the normal only
+    assert abs(np.cross(v[1], normal)[2]) > 1e-3
+
+
+def test_newtons_cradle_passes_the_velocity_down_the_row():
+    r, gap = 0.01, 1e-4
+    n = 5
+    scene = pair_scene(restitution=1.0, dt=2e-5)
+    x = np.array([[k * (2 * r + gap), 0, 0] for k in range(n)])
+    v = np.zeros((n, 3))
+    v[0, 0] = 1.0
+    scene.add_particles(positions=x, velocities=v, radius=r)
+    scene.step(100)
+    out = scene.velocities()[:, 0]
+    assert out[-1] == pytest.approx(1.0, rel=0.01)
+    assert np.all(np.abs(out[:-1]) < 0.01)
+    assert out.sum() == pytest.approx(1.0, abs=1e-12)
+
+
+def test_stack_on_a_floor_comes_to_rest():
+    r = 0.01
+    scene = tc.Scene(dt=1 / 1000, substeps=5)
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.2, friction=0.4))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4))
+    scene.add_particles(positions=[[0, r + k * 2.05 * r, 0] for k in range(10)], radius=r)
+    scene.step(100)
+    assert np.abs(scene.velocities()).max() < 1e-3
+    overlap = scene.particle_overlap()
+    assert overlap["pairs"] == 9 and overlap["max"] < 0.05
+    assert scene.positions()[0, 1] == pytest.approx(r, abs=1e-3 * r)
+
+
+def test_pile_in_a_box_settles(request):
+    # 10,000 particles dropped into a box of planes: the pile's overlap stays small, no
+    # particle escapes, kinetic energy decays to near zero.
+    r, half = 0.01, 0.25
+    scene = tc.Scene(dt=1 / 1000, substeps=5)
+    walls = [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),
+             ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]
+    for point, normal in walls:
+        scene.add_collider(tc.Plane(point=point, normal=normal), material=tc.Material(restitution=0.2, friction=0.4))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4))
+    rng = np.random.default_rng(0)
+    g = np.arange(-half + 1.5 * r, half - 1.5 * r, 2.3 * r)
+    X, Y, Z = np.meshgrid(g, np.arange(0.02, 3.0, 2.3 * r), g, indexing="ij")
+    x = np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1)
+    x = x[np.argsort(x[:, 1], kind="stable")][:10_000] + rng.uniform(-0.1 * r, 0.1 * r, (10_000, 3))
+    scene.add_particles(positions=x, radius=r)
+    energy = []
+    for _ in range(12):
+        scene.step(25)
+        v = scene.velocities()
+        energy.append(0.5 * float((v * v).sum()))
+    overlap = scene.particle_overlap()
+    x = scene.positions()
+    assert overlap["mean"] < 0.05 and overlap["max"] < 0.20, overlap
+    assert np.all(np.abs(x[:, [0, 2]]) <= half) and x[:, 1].min() >= r * (1 - 1e-3)
+    assert energy[-1] < 1e-3 * max(energy), energy
+    assert np.all(scene.status() == "active")
+
+
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (-37.3, -5.0, -12.9)])
+def test_hash_grid_matches_brute_force(offset):
+    rng = np.random.default_rng(3)
+    n = 600
+    x = rng.uniform(-0.3, 0.3, (n, 3)) + np.array(offset)
+    x[:5] += [1e3, -2e3, 5e2]  # far outside the others' bounds
+    radius = rng.uniform(0.01, 0.03, n)
+    margin = 0.005
+    import taichi as ti
+    from tai_coll import runtime
+
+    dtype = runtime.float_dtype()
+    xs = ti.Vector.ndarray(3, float, shape=n)
+    xs.from_numpy(x.astype(dtype))
+    rs = ti.ndarray(float, shape=n)
+    rs.from_numpy(radius.astype(dtype))
+    flags = ti.ndarray(ti.i32, shape=n)
+    flags.fill(0)
+    grid = HashGrid()
+    grid.build(xs, rs, flags, n, 2 * radius.max() + margin, margin)
+    lists = grid.neighbour_lists(n)
+    d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    reach = radius[:, None] + radius[None, :] + margin
+    for i in range(n):
+        expected = np.flatnonzero((d[i] < reach[i]) & (np.arange(n) != i))
+        assert np.array_equal(lists[i], expected), i
+    assert grid.take_overflow() == 0
+
+
+def test_particle_collisions_need_a_material():
+    scene = tc.Scene()
+    with pytest.raises(TypeError, match="material"):
+        scene.enable_particle_collisions(material=0.5)
+    with pytest.raises(ValueError, match="iterations"):
+        scene.enable_particle_collisions(iterations=0)
