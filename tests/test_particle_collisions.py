@@ -140,3 +140,62 @@ def test_particle_collisions_need_a_material():
         scene.enable_particle_collisions(material=0.5)
     with pytest.raises(ValueError, match="iterations"):
         scene.enable_particle_collisions(iterations=0)
+
+
+def dem_scene(**solver):
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=2e-5, substeps=10, solver=tc.PenaltySolver(**solver))
+    scene.enable_particle_collisions(material=tc.Material(friction=0.0))
+    return scene
+
+
+def test_dem_pair_undamped_is_elastic_and_conserves_momentum():
+    # Penalty solver: a spring on the overlap with the pair's reduced mass. Undamped, equal
+    # masses exchange velocities; masses 1 and 3 keep the total momentum to round-off.
+    scene = dem_scene(stiffness=2e4, damping=0.0)
+    scene.add_particles(positions=[[-0.06, 0, 0], [0.06, 0, 0]], velocities=[[1, 0, 0], [-1, 0, 0]],
+                        mass=np.array([1.0, 3.0]), radius=0.05)
+    scene.step(300)
+    v = scene.velocities()
+    assert np.allclose(1.0 * v[0] + 3.0 * v[1], [-2.0, 0, 0], atol=1e-12)
+    # elastic: the relative speed is restored (e = 1) within the integrator's error
+    assert (v[1, 0] - v[0, 0]) == pytest.approx(2.0, rel=0.01)
+    assert scene.particle_overlap()["pairs"] == 0
+
+
+def push_only_restitution(zeta: float) -> float:
+    """Rebound of the damped oscillator x'' = -w^2 x - 2 zeta w x' (x: overlap) that can only
+    push: x(t) = (v0/wd) exp(-zeta w t) sin(wd t) until the force w x + 2 zeta x' reaches zero
+    (bisection on that closed form), then free flight at -x'(t*)."""
+    w = 1.0
+    wd = w * np.sqrt(1 - zeta ** 2)
+
+    def x(t):
+        return np.exp(-zeta * w * t) * np.sin(wd * t) / wd
+
+    def xdot(t):
+        return np.exp(-zeta * w * t) * (np.cos(wd * t) - zeta * w / wd * np.sin(wd * t))
+
+    lo, hi = np.pi / (2 * wd), np.pi / wd  # the force changes sign between the turn and x = 0
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        if w * x(mid) + 2 * zeta * xdot(mid) > 0:
+            lo = mid
+        else:
+            hi = mid
+    return -xdot(lo)
+
+
+def test_dem_pair_damping_ratio_sets_the_rebound():
+    # Damped pair contact, push-only: the rebound follows the closed form above (it is a
+    # little above the linear oscillator's exp(-zeta pi / sqrt(1 - zeta^2)), since a
+    # push-only contact cannot brake the particles as they separate).
+    zeta = 0.2
+    scene = dem_scene(hertz=40.0, damping_ratio=zeta)
+    scene.add_particles(positions=[[-0.051, 0, 0], [0.051, 0, 0]], velocities=[[0.5, 0, 0], [-0.5, 0, 0]],
+                        radius=0.05)
+    scene.step(400)
+    v = scene.velocities()
+    e = push_only_restitution(zeta)
+    assert np.exp(-zeta * np.pi / np.sqrt(1 - zeta ** 2)) < e
+    assert (v[1, 0] - v[0, 0]) / 1.0 == pytest.approx(e, rel=0.02)
+    assert np.allclose(v.sum(axis=0), 0.0, atol=1e-12)

@@ -99,13 +99,15 @@ class Scene:
     def enable_particle_collisions(self, *, material: Material | None = None, **options):
         """Let particles collide with each other (PHYSICS.md 2, two movable bodies): impulses
         between pairs found by a spatial hash grid each substep, with restitution and
-        friction from `material`, then the colliders. Options: iterations (contact passes,
+        friction from `material`, then the colliders. With a tc.PenaltySolver, pairs are
+        DEM spring-dashpots with the solver's stiffness and damping (reduced mass) and the
+        material's friction. Options: iterations (contact passes,
         default 4), projection_iterations (4), relaxation (1.5), margin (0.5 of the largest
         radius). See tai_coll.solvers.pairs. Returns the settings object."""
         self._check_runtime()
-        if not hasattr(self.solver, "resolve_candidates"):
-            raise TypeError(f"particle collisions need a solver that resolves candidates "
-                            f"(tc.ImpulseSolver); got {type(self.solver).__name__}")
+        if not (hasattr(self.solver, "resolve_candidates") or hasattr(self.solver, "kernel_constants")):
+            raise TypeError(f"particle collisions need tc.ImpulseSolver or tc.PenaltySolver; "
+                            f"got {type(self.solver).__name__}")
         from ..solvers.pairs import ParticleCollisions
 
         self._pairs = ParticleCollisions(material=material, **options)

@@ -30,6 +30,8 @@ from ..materials import Material
 from ..neighbors.hash_grid import HashGrid
 from ..response.collide import WET_LAWS
 from ..response.laws import respond
+from ..response.penalty import friction_force, spring_damper
+from .penalty import contact_constants
 from ..scene import particles as P
 
 vec3 = ti.math.vec3
@@ -167,6 +169,35 @@ def _overlap_stats(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.
                     ti.atomic_add(worst[2], 1.0)
 
 
+@ti.kernel
+def _pair_forces(x: ti.types.ndarray(), v: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(),
+                 n: ti.i32, neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(), dt: float,
+                 stiffness: float, per_mass: ti.i32, damping: float, is_ratio: ti.i32, static_friction: float,
+                 kinetic_friction: float, viscous_friction: float,
+                 # outputs
+                 force: ti.types.ndarray()):
+    """DEM contact (PHYSICS.md 4 between two particles): a spring-damper on the overlap,
+    f_n = k overlap - D (v_rel . n), only pushing, and friction bounded by mu f_n. The
+    constants use the pair's reduced mass m_a m_b / (m_a + m_b), the same on both sides,
+    so f_ab = -f_ba and momentum is conserved."""
+    for i in range(n):
+        total = vec3(0.0, 0.0, 0.0)
+        for k in range(neighbour_count[i]):
+            j = neighbours[i, k]
+            nrm, dist = pair_normal(x[i], x[j], i, j)
+            overlap = radius[i] + radius[j] - dist
+            if overlap > 0.0:
+                m_pair = mass[i] * mass[j] / (mass[i] + mass[j])
+                stiff, damp = contact_constants(m_pair, stiffness, per_mass, damping, is_ratio)
+                v_rel = v[i] - v[j]
+                vn = v_rel.dot(nrm)
+                fn = spring_damper(overlap, vn, stiff, damp)
+                total += fn * nrm
+                total += friction_force(v_rel - vn * nrm, fn, m_pair, dt, static_friction, kinetic_friction,
+                                        viscous_friction)
+        force[i] = total
+
+
 class ParticleCollisions:
     """Settings and work arrays of particle-particle collisions (see `Scene.enable_particle_collisions`).
 
@@ -206,7 +237,28 @@ class ParticleCollisions:
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
 
     def substep(self, scene, dt: float):
-        """One substep of every particle: pairs first, then the scene's solver against colliders."""
+        """One substep of every particle: pairs first, then the scene's solver against colliders.
+        With a penalty solver, pairs are DEM spring-dashpots: forces at the substep's start."""
+        if hasattr(scene.solver, "kernel_constants"):
+            self._penalty_substep(scene, dt)
+        else:
+            self._impulse_substep(scene, dt)
+
+    def _penalty_substep(self, scene, dt: float):
+        particles = scene._particles
+        n = particles.count
+        self._ensure(particles.capacity)
+        r_max = scene._max_radius()
+        margin = self.margin * r_max
+        self.grid.build(particles.x, particles.radius, particles.flags, n, 2.0 * r_max + margin, 0.0)
+        m = self.material
+        _pair_forces(particles.x, particles.v, particles.mass, particles.radius, n, self.grid.neighbours,
+                     self.grid.neighbour_count, dt, *scene.solver.kernel_constants(), m.static_friction, m.friction,
+                     m.wet_friction, self.delta)
+        scene.solver.advance(scene, dt, 1, force=self.delta)
+        self.neighbour_overflow += self.grid.take_overflow()
+
+    def _impulse_substep(self, scene, dt: float):
         particles = scene._particles
         n = particles.count
         self._ensure(particles.capacity)

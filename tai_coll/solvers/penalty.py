@@ -107,16 +107,21 @@ def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: ve
 @ti.func
 def penalty_particle(p: ti.template(), c: ti.template(), table: ti.template(), i, n_colliders, gravity: vec3,
                      dt, stiffness, stiffness_per_mass, damping, damping_is_ratio, integrator,
-                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, clearance):
-    """One substep of particle i; returns its clearance after the substep (<= 0: unknown)."""
+                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, clearance,
+                     force: ti.template(), use_force: ti.template()):
+    """One substep of particle i; returns its clearance after the substep (<= 0: unknown).
+    With use_force, force[i] (N, e.g. from other particles) joins gravity."""
     if p.flags[i] == P.ACTIVE:
         # gather
         x0 = p.x[i]
         v0 = p.v[i]
         m = p.mass[i]
         r = p.radius[i]
-        # forces: gravity, then the colliders within reach (none while the clearance lasts)
+        # forces: gravity (and given forces), then the colliders within reach (none while the
+        # clearance lasts)
         v1 = v0 + dt * gravity
+        if ti.static(use_force):
+            v1 += (dt / m) * force[i]
         if clearance <= 0.0:
             k, d = contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio)
             v1, clearance = contact_velocity(c, table, n_colliders, x0, v0, v1, m, r, gravity, dt, k, d,
@@ -139,7 +144,8 @@ def penalty_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     table: vectors(TABLE_WIDTH),
                     n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
                     stiffness: float, stiffness_per_mass: ti.i32, damping: float, damping_is_ratio: ti.i32,
-                    integrator: ti.i32, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
+                    integrator: ti.i32, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
+                    force: vectors(), use_force: ti.template()):
     # Particles are independent: with colliders that hold still during the call, one launch
     # runs every substep of a particle in registers, carrying its clearance.
     for i in range(n_particles):
@@ -151,7 +157,7 @@ def penalty_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                                                         fpool, ipool, groups),
                                          table, i, n_colliders, gravity, dt, stiffness, stiffness_per_mass,
                                          damping, damping_is_ratio, integrator, use_domain, domain_lo, domain_hi,
-                                         clearance)
+                                         clearance, force, use_force)
 
 
 class PenaltySolver:
@@ -277,16 +283,24 @@ class PenaltySolver:
         self._tables[scene] = (key, table)
         return table
 
-    def advance(self, scene, dt: float, substeps: int = 1):
-        """Advance every active particle of `scene` by `substeps` substeps of dt against its
-        colliders, which must keep their current poses for the whole call."""
-        table = self._collider_table(scene)
+    def kernel_constants(self):
+        """(stiffness, per_mass, damping, is_ratio) as the kernels take them: stiffness holds
+        (2 pi f)^2 when per_mass, damping holds zeta when is_ratio."""
         per_mass = self.stiffness is None
         stiffness = (2.0 * np.pi * self.hertz) ** 2 if per_mass else self.stiffness
         is_ratio = self.damping is None
         damping = (1.0 if self.damping_ratio is None else self.damping_ratio) if is_ratio else self.damping
+        return stiffness, int(per_mass), damping, int(is_ratio)
+
+    def advance(self, scene, dt: float, substeps: int = 1, force=None):
+        """Advance every active particle of `scene` by `substeps` substeps of dt against its
+        colliders, which must keep their current poses for the whole call. `force`: an
+        optional ndarray of per-particle forces (N) held for the call (other particles')."""
+        table = self._collider_table(scene)
+        stiffness, per_mass, damping, is_ratio = self.kernel_constants()
         lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
         penalty_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(), scene._colliders.groups,
                         table, scene._particles.count, len(scene._colliders), substeps, vec3(*scene.gravity), dt,
-                        stiffness, int(per_mass), damping, int(is_ratio), INTEGRATORS[self.integrator],
-                        scene.domain is not None, vec3(*lo), vec3(*hi))
+                        stiffness, per_mass, damping, is_ratio, INTEGRATORS[self.integrator],
+                        scene.domain is not None, vec3(*lo), vec3(*hi),
+                        force if force is not None else scene._particles.v, force is not None)
