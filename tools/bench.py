@@ -471,6 +471,23 @@ def print_table(rows, compile_info, speedups, machine):
               f"(target 20x: {'met' if sp['ratio'] >= 20 else 'NOT met'})")
 
 
+def print_pile_table(rows):
+    print()
+    head = f"{'pile (particle collisions)':<28} {'particles':>10} {'median frame s':>14} {'Mparticle-steps/s':>18} " \
+           f"{'grid build ms':>13} {'B/particle':>10} {'mean/max overlap':>17}"
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        o = r["overlap_end"]
+        print(f"{'taichi impulse, ' + r['precision']:<28} {r['particles']:>10,} {r['median_frame_s']:>14.4f} "
+              f"{r['particle_steps_per_s'] / 1e6:>18.2f} {r['grid_build_s'] * 1e3:>13.1f} "
+              f"{r['state_bytes_per_particle']:>10.0f} {100 * o['mean']:>7.1f}% / {100 * o['max']:>5.1f}%")
+    for r in rows:
+        if r["particles"] == 100_000:
+            rate = r["particle_steps_per_s"]
+            print(f"pile of 100,000: {rate / 1e6:.2f} M particle-steps/s (target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -486,7 +503,12 @@ def main(argv=None):
     parser.add_argument("--profile", action="store_true", help="extra rows to see where the time goes")
     parser.add_argument("--no-compile-probe", action="store_true", help="skip the cold/warm child processes")
     parser.add_argument("--compile-probe", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--pile", action="store_true",
+                        help="also particle-particle collisions: piles of 100,000 and 1,000,000 particles "
+                             "(100,000 only with --quick) settling in a box (tools/bench_pile.py)")
+    parser.add_argument("--pile-only", action="store_true", help="only the pile rows")
     args = parser.parse_args(argv)
+    args.pile = args.pile or args.pile_only
 
     if args.compile_probe:
         print(json.dumps(compile_probe(args)))
@@ -509,13 +531,26 @@ def main(argv=None):
     machine = machine_info(args)
 
     rows = []
-    for case in CASES + (profile_cases(args) if args.profile else []):
+    for case in ([] if args.pile_only else CASES + (profile_cases(args) if args.profile else [])):
         for row in case(setup):
             rows.append(row)
             print(f"  done: {row['case']} ({row['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s)",
                   flush=True)
 
+    pile_rows = []
+    if args.pile:
+        from bench_pile import pile_case
+
+        for n in ((100_000,) if args.quick else (100_000, 1_000_000)):
+            row = pile_case(tc, n, frames=args.frames if n <= 100_000 else max(3, args.frames // 3))
+            row.update(precision=args.precision, threads=args.threads)
+            pile_rows.append(row)
+            print(f"  done: pile of {n:,} ({row['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s)", flush=True)
+
     print_table(rows, compile_info, setup["speedups"], machine)
+    if pile_rows:
+        print_pile_table(pile_rows)
+    rows += pile_rows
 
     config = {"particles": args.particles, "dt": DT, "substeps": SUBSTEPS, "radius": RADIUS, "frames": args.frames,
               "numpy_frames": args.numpy_frames, "precision": args.precision}
