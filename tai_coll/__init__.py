@@ -14,6 +14,8 @@ Importing this package never touches a GPU or Vulkan; `tc.init()` (or first use)
 from . import params
 from .errors import SimulationError
 from .geometry import Box, Capsule, Collider, Cylinder, Plane, Sphere, rotation_matrix
+from .geometry.implicit import Implicit
+from .geometry.mesh_sdf import MeshSDF, bake_mesh
 from .materials import Material
 from .response import collide, collide_pair
 from .response.repulsion import RepulsionField
@@ -27,4 +29,5 @@ __all__ = [
     "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PenaltySolver", "Plane",
     "RepulsionField", "RuntimeInfo", "Scene", "SimulationError", "Sphere", "collide", "collide_pair", "init",
     "params", "rotation_matrix",
+    "Implicit", "MeshSDF", "bake_mesh",
 ]

@@ -15,11 +15,32 @@ BOX = 2
 CYLINDER = 3
 CAPSULE = 4
 
-NAMES = {PLANE: "plane", SPHERE: "sphere", BOX: "box", CYLINDER: "cylinder", CAPSULE: "capsule"}
+SDF_GRID = 12      # signed-distance grid: MeshSDF, numpy Implicit (grid_sdf.py)
+
+NAMES = {PLANE: "plane", SPHERE: "sphere", BOX: "box", CYLINDER: "cylinder", CAPSULE: "capsule",
+         SDF_GRID: "sdf grid"}
 
 GROUP_ANALYTIC = 1  # plane, sphere, box, cylinder, capsule: closed forms, all convex
+GROUP_GRID = 64      # signed-distance grids
 GROUPS = {PLANE: GROUP_ANALYTIC, SPHERE: GROUP_ANALYTIC, BOX: GROUP_ANALYTIC, CYLINDER: GROUP_ANALYTIC,
-          CAPSULE: GROUP_ANALYTIC}
+          CAPSULE: GROUP_ANALYTIC, SDF_GRID: GROUP_GRID}
+
+# Implicit colliders of a user's Taichi function: one kind and one group bit per function,
+# registered at run time (implicit_eval.py), so a kernel inlines only the functions its scene uses.
+IMPLICIT_FIRST = 64
+IMPLICIT_MAX = 32
+GROUP_IMPLICIT_FIRST_BIT = 12
+GROUP_IMPLICIT = ((1 << IMPLICIT_MAX) - 1) << GROUP_IMPLICIT_FIRST_BIT  # every implicit bit
+
+
+def register_implicit(index: int, name: str) -> int:
+    """Kind id of the index-th registered implicit function, recorded in NAMES and GROUPS."""
+    if index >= IMPLICIT_MAX:
+        raise ValueError(f"at most {IMPLICIT_MAX} distinct implicit functions per process")
+    kind = IMPLICIT_FIRST + index
+    NAMES[kind] = f"implicit {name}"
+    GROUPS[kind] = 1 << (GROUP_IMPLICIT_FIRST_BIT + index)
+    return kind
 
 
 @ti.func

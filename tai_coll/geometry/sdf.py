@@ -10,6 +10,8 @@ the step kernels and the host-side `signed_distance` / `normal` both call them.
 import taichi as ti
 
 from . import kinds
+from .grid_sdf import grid_sdf
+from .implicit_eval import implicit_sdf
 
 vec3 = ti.math.vec3
 vec4 = ti.math.vec4
@@ -114,6 +116,11 @@ def local_sdf(g: ti.template(), ci, kind: ti.i32, p: vec3, params: vec4):
             phi, n = cylinder_sdf(p, params[0], params[1])
         elif kind == kinds.CAPSULE:
             phi, n = capsule_sdf(p, params[0], params[1])
+    if ti.static(g.groups & kinds.GROUP_GRID):
+        if kind == kinds.SDF_GRID:
+            phi, n = grid_sdf(g, ci, p)
+    if ti.static(g.groups & kinds.GROUP_IMPLICIT):
+        phi, n = implicit_sdf(g, ci, kind, p)  # dispatches over the scene's implicit kinds
     return phi, n
 
 

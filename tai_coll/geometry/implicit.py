@@ -1,0 +1,132 @@
+"""Implicit colliders: a user's function f(x) = 0 (PHYSICS.md 1, last row).
+
+f < 0 inside, f > 0 outside, in the collider's local frame. Two ways to give it:
+- a Taichi function `@ti.func def f(p: ti.math.vec3) -> float`: evaluated in the kernels
+  themselves. Each distinct function gets its own collider kind and group bit
+  (kinds.register_implicit), so a kernel inlines only the functions its scene uses;
+  the normal is the gradient of f, from the user's `gradient` function or by central
+  differences;
+- a vectorised numpy function `f(points (N, 3)) -> (N,)`: sampled on a grid over
+  `bounds` and then handled exactly like a baked mesh (grid_sdf.py): trilinear phi,
+  analytic gradient.
+phi = f / lipschitz, where `lipschitz` bounds |grad f| (1 for a true signed distance), so
+phi never exceeds the distance to the surface: culling, free-flight clearance and the
+trajectory crossing by conservative advancement (marching.py) stay safe.
+"""
+
+import numpy as np
+
+from .. import runtime, validate
+from . import kinds
+from .colliders import Collider
+from .implicit_eval import GRADIENT_STEP, is_taichi_function, kind_for
+
+class Implicit(Collider):
+    """A solid bounded by the zero set of a user's function f (negative inside).
+
+    function: a Taichi function `f(p: ti.math.vec3) -> float` of the local point, or a
+        vectorised numpy function `f(points (N, 3)) -> (N,)`.
+    bounds: ((x0, y0, z0), (x1, y1, z1)), local box (m) that contains the surface.
+        Required for a numpy function (the grid covers it); for a Taichi function optional:
+        it gives the bounding sphere used to skip far particles (without it, unbounded).
+    lipschitz: bound on |grad f| (1 when f is a signed distance): phi = f / lipschitz.
+    gradient: Taichi functions only, optional `@ti.func (p) -> vec3`, the gradient of f;
+        default central differences with step `gradient_step` (m; default 1e-6 x scale
+        in f64, 1e-3 x scale in f32, scale the size of `bounds` or 1 m).
+    resolution / voxel_size: numpy functions only: grid nodes along the longest side of
+        `bounds` (default 64), or the spacing (m).
+    center, rotation: pose of the local frame.
+    """
+
+    def __init__(self, function, *, bounds=None, lipschitz=1.0, gradient=None, gradient_step=None,
+                 resolution=None, voxel_size=None, center=(0.0, 0.0, 0.0), rotation=None):
+        if not callable(function):
+            raise TypeError(f"function must be a Taichi function or a numpy function; got {type(function).__name__}")
+        self.lipschitz = validate.real("lipschitz", lipschitz, low=0.0, low_open=True)
+        self.bounds = None
+        if bounds is not None:
+            try:
+                lo, hi = bounds
+            except (TypeError, ValueError):
+                raise ValueError("bounds must be a pair (lower corner, upper corner)") from None
+            lo = validate.vector3("bounds lower corner", lo)
+            hi = validate.vector3("bounds upper corner", hi)
+            if np.any(hi <= lo):
+                raise ValueError(f"bounds upper corner must exceed the lower one; got {lo.tolist()} and {hi.tolist()}")
+            self.bounds = (lo, hi)
+        center = validate.vector3("center", center)
+        rotation = validate.rotation("rotation", rotation)
+        self.function = function
+        self.taichi = is_taichi_function(function)
+        if self.taichi:
+            if resolution is not None or voxel_size is not None:
+                raise ValueError("resolution and voxel_size apply to numpy functions only (they are sampled "
+                                 "on a grid); a Taichi function is evaluated exactly")
+            if gradient is not None and not is_taichi_function(gradient):
+                raise TypeError("gradient must be a Taichi function (@ti.func) returning a vec3")
+            self.gradient_step = validate.real("gradient_step", gradient_step, low=0.0, low_open=True,
+                                               allow_none=True)
+            self.kind = kind_for(function, gradient)
+            bound = self.UNBOUNDED
+            if self.bounds is not None:
+                bound = float(np.max(np.linalg.norm(np.array([[x, y, z] for x in (lo[0], hi[0])
+                                                               for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]),
+                                                    axis=1)))
+            self.scale = 1.0 if self.bounds is None else float(np.max(hi - lo))
+            super().__init__(center=center, rotation=rotation, params=(), bound=bound)
+        else:
+            self._sample_numpy(function, gradient, gradient_step, resolution, voxel_size, center, rotation)
+
+    def _sample_numpy(self, function, gradient, gradient_step, resolution, voxel_size, center, rotation):
+        if gradient is not None or gradient_step is not None:
+            raise ValueError("gradient and gradient_step apply to Taichi functions only; a numpy function "
+                             "is sampled on a grid whose interpolant has an exact gradient")
+        if self.bounds is None:
+            raise ValueError("bounds is required for a numpy function: the box over which it is sampled")
+        if resolution is not None and voxel_size is not None:
+            raise ValueError("give resolution or voxel_size, not both")
+        lo, hi = self.bounds
+        extent = hi - lo
+        if voxel_size is None:
+            resolution = validate.integer("resolution", 64 if resolution is None else resolution, low=4)
+            h = float(np.max(extent)) / (resolution - 1)
+        else:
+            h = validate.real("voxel_size", voxel_size, low=0.0, low_open=True)
+        dims = np.maximum(np.ceil(extent / h - 1e-9).astype(np.int64) + 1, 2)
+        middle = 0.5 * (lo + hi)
+        self.origin = middle - 0.5 * h * (dims - 1)
+        self.voxel_size = h
+        axes = [self.origin[a] + h * np.arange(dims[a]) for a in range(3)]
+        nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        values = np.asarray(function(nodes), dtype=np.float64)
+        if values.shape not in ((len(nodes),), (len(nodes), 1)):
+            raise ValueError(f"function must return one value per point, shape ({len(nodes)},); "
+                             f"got {values.shape}")
+        if not np.all(np.isfinite(values)):
+            raise ValueError("function returned NaN or infinite values inside bounds")
+        self.values = values.reshape(tuple(dims)) / self.lipschitz
+        self.kind = kinds.SDF_GRID
+        half = 0.5 * h * (dims - 1)
+        corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half + middle
+        super().__init__(center=center, rotation=rotation, params=half,
+                         bound=float(np.max(np.linalg.norm(corners, axis=1))))
+
+    def shape_data(self):
+        ishape = np.zeros(8, dtype=np.int32)
+        fshape = np.zeros(8)
+        if self.taichi:
+            fshape[0] = 1.0 / self.lipschitz
+            step = self.gradient_step
+            if step is None:
+                step = GRADIENT_STEP[np.dtype(runtime.float_dtype())] * self.scale
+            fshape[1] = step
+            return ishape, fshape, np.zeros(0), np.zeros(0, dtype=np.int32)
+        ishape[2:5] = self.values.shape
+        fshape[0:3] = self.origin
+        fshape[3] = self.voxel_size
+        return ishape, fshape, self.values.ravel(), np.zeros(0, dtype=np.int32)
+
+    def _describe(self):
+        name = getattr(self.function, "__name__", "function")
+        how = "taichi" if self.taichi else f"grid {list(self.values.shape)}"
+        return f"{name}, {how}, center={self.center.tolist()}"
