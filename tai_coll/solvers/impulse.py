@@ -207,9 +207,15 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
     # the call, one launch runs several substeps and keeps each particle in registers,
     # including its clearance: while the distance to every collider exceeds the substep's
     # displacement, nothing can be touched and the substep is plain integration.
+    # A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
+    # still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the
+    # same in every later substep of the launch, so the particle is done: an exact shortcut,
+    # not an approximation (no sleeping thresholds).
     for i in range(n_particles):
         clearance = -1.0
         for _ in range(n_substeps):
+            x_before = x[i]
+            v_before = v[i]
             clearance = substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
                                          ColliderArrays(kind, params, material, center0, rotation0, center1,
                                                         rotation1, velocity, angular_velocity, ishape, fshape,
@@ -217,6 +223,8 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                                          i, n_colliders, gravity, dt, scheme, wet_law, max_iterations,
                                          elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction,
                                          rest_speed, use_domain, domain_lo, domain_hi, clearance)
+            if all(x[i] == x_before) and all(v[i] == v_before):
+                break
 
 
 @ti.func
