@@ -1,0 +1,404 @@
+"""The `tai-coll` command (also `python -m tai_coll`).
+
+    tai-coll run SCENE.py [--frames N] [--fps F] [--res WxH] [--out DIR] [--video PATH]
+                          [--arch cpu|cuda|vulkan|auto] [--threads N] [--no-render] [--no-frames] [--no-video]
+    tai-coll info [--arch ARCH]
+    tai-coll bake MESH [...]      (tai_coll.bake: mesh signed-distance grids, when installed)
+
+`run` loads a scene script, simulates it, renders every frame offscreen, writes PNG frames
+and a video, and prints a summary. A scene script is a Python file with:
+
+- `scene()` returning a tc.Scene (required);
+- `FRAMES` (optional): the default number of frames;
+- `render_settings()` (optional): a dict of keyword arguments for tai_coll.render.Renderer
+  (camera, color_by, colormap, color_range, ...; width and height are defaults that --res
+  overrides).
+
+Exit status: 0 done, 1 the scene script, the simulation, rendering or ffmpeg failed (with
+the script's traceback or ffmpeg's message), 2 bad arguments (one line saying why),
+130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import logging
+import sys
+import time
+import traceback
+from pathlib import Path
+
+ARCHS = ("cpu", "cuda", "vulkan", "auto")
+DEFAULT_FRAMES = 120
+DEFAULT_RES = (1280, 720)
+FRAME_PATTERN = "frame_{:05d}.png"
+
+
+class UsageError(Exception):
+    """Bad arguments: reported in one line, exit status 2."""
+
+
+class ScriptError(Exception):
+    """The scene script raised: its traceback is reported, exit status 1."""
+
+    def __init__(self, path: Path, what: str, error: BaseException):
+        super().__init__(f"{path} failed {what}: {type(error).__name__}: {error}")
+        self.path, self.error = path, error
+
+
+# ----------------------------------------------------------------------------- arguments
+def parse_resolution(text: str):
+    from .render.renderer import MAX_SIZE
+
+    parts = text.lower().split("x")
+    try:
+        width, height = (int(p) for p in parts)
+    except ValueError:
+        raise UsageError(f"--res must be WIDTHxHEIGHT, e.g. 1280x720; got {text!r}") from None
+    if not (1 <= width <= MAX_SIZE and 1 <= height <= MAX_SIZE):
+        raise UsageError(f"--res must have a width and height from 1 to {MAX_SIZE} pixels; got {text!r}")
+    return width, height
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="tai-coll", description="tai_coll: particle collisions on Taichi.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    commands.required = True
+
+    run = commands.add_parser("run", help="simulate a scene script, render frames and a video")
+    run.add_argument("scene", metavar="SCENE.py", help="a Python file defining scene() -> tc.Scene")
+    run.add_argument("--frames", type=int, help=f"frames to simulate (default: the script's FRAMES, else "
+                                                f"{DEFAULT_FRAMES})")
+    run.add_argument("--fps", type=float, help="video frames per second (default: real time, 1 / (substeps dt))")
+    run.add_argument("--res", default=None, metavar="WxH", help="frame size in pixels (default 1280x720)")
+    run.add_argument("--out", metavar="DIR", help="folder for the PNG frames (default out/SCENE)")
+    run.add_argument("--video", metavar="PATH", help="video file, .mp4 or .gif (default DIR/SCENE.mp4)")
+    run.add_argument("--no-frames", action="store_true", help="write no PNG frames")
+    run.add_argument("--no-video", action="store_true", help="write no video")
+    run.add_argument("--arch", default="auto", choices=ARCHS, help="where the physics runs (default auto)")
+    run.add_argument("--threads", type=int, help="CPU threads for the physics (default: all cores)")
+    run.add_argument("--no-render", action="store_true", help="simulate only: no frames, no video, no Vulkan")
+
+    info = commands.add_parser("info", help="versions, arch, Vulkan and ffmpeg: a preflight check")
+    info.add_argument("--arch", default="auto", choices=ARCHS, help="arch to report (default auto)")
+
+    bake = commands.add_parser("bake", add_help=False, help="bake mesh signed-distance grids into the cache "
+                                                            "(`tai-coll bake --help` for its options)")
+    bake.add_argument("args", nargs=argparse.REMAINDER)
+    return parser
+
+
+def check_run_args(args):
+    """Validate `run` arguments before Taichi starts; returns the scene path."""
+    path = Path(args.scene)
+    if not path.exists():
+        raise UsageError(f"scene file not found: {path}")
+    if not path.is_file():
+        raise UsageError(f"scene path is not a file: {path}")
+    if path.suffix != ".py":
+        raise UsageError(f"scene file must be a Python script (.py): {path}")
+    if args.frames is not None and args.frames < 1:
+        raise UsageError(f"--frames must be >= 1; got {args.frames}")
+    if args.fps is not None and not (args.fps > 0 and args.fps < 1e4):
+        raise UsageError(f"--fps must be > 0; got {args.fps}")
+    if args.threads is not None and args.threads < 1:
+        raise UsageError(f"--threads must be >= 1; got {args.threads}")
+    args.resolution = parse_resolution(args.res) if args.res is not None else None
+    if args.video is not None and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
+        raise UsageError(f"--video must end in .mp4 or .gif; got {args.video}")
+    return path
+
+
+# ----------------------------------------------------------------------------- scene scripts
+def load_script(path: Path):
+    """Import a scene script as a module (its folder on sys.path, as `python SCRIPT` has)."""
+    name = f"tai_coll_scene_{path.stem}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    folder = str(path.resolve().parent)
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except Exception as error:
+        raise ScriptError(path, "while loading", error) from error
+    return module
+
+
+def build_scene(module, path: Path):
+    import tai_coll as tc
+
+    make = getattr(module, "scene", None)
+    if not callable(make):
+        raise UsageError(f"{path} defines no scene() function (it must return a tc.Scene)")
+    try:
+        scene = make()
+    except Exception as error:
+        raise ScriptError(path, "in scene()", error) from error
+    if not isinstance(scene, tc.Scene):
+        raise UsageError(f"{path}: scene() must return a tc.Scene; got {type(scene).__name__}")
+    return scene
+
+
+def render_settings(module, path: Path) -> dict:
+    make = getattr(module, "render_settings", None)
+    if make is None:
+        return {}
+    try:
+        settings = make()
+    except Exception as error:
+        raise ScriptError(path, "in render_settings()", error) from error
+    if not isinstance(settings, dict):
+        raise UsageError(f"{path}: render_settings() must return a dict of Renderer arguments; "
+                         f"got {type(settings).__name__}")
+    return dict(settings)
+
+
+def script_traceback(error: ScriptError) -> str:
+    """The traceback from the script's own frames on (tai-coll's loader frames left out)."""
+    te = traceback.TracebackException.from_exception(error.error)
+    script = str(error.path.resolve())
+    frames = list(te.stack)
+    for i, frame in enumerate(frames):
+        if str(Path(frame.filename).resolve()) == script:
+            te.stack = traceback.StackSummary.from_list(frames[i:])
+            break
+    return "".join(te.format())
+
+
+# ----------------------------------------------------------------------------- run
+def default_fps(scene) -> float:
+    fps = 1.0 / scene.frame_time
+    return round(fps, 3) if 1.0 <= fps <= 240.0 else 30.0
+
+
+def run(args) -> int:
+    path = check_run_args(args)
+    import tai_coll as tc
+
+    tc.init(arch=args.arch, threads=args.threads)
+    module = load_script(path)
+    scene = build_scene(module, path)
+    frames = args.frames if args.frames is not None else int(getattr(module, "FRAMES", DEFAULT_FRAMES))
+    fps = args.fps if args.fps is not None else default_fps(scene)
+    render = not args.no_render
+    renderer = video = None
+    frame_dir = video_path = None
+    if render:
+        from .render import Renderer, VideoWriter, write_png
+
+        settings = render_settings(module, path)
+        width, height = settings.pop("width", DEFAULT_RES[0]), settings.pop("height", DEFAULT_RES[1])
+        if args.resolution is not None:
+            width, height = args.resolution
+        try:
+            renderer = Renderer(width=width, height=height, **settings)
+        except (TypeError, ValueError) as error:
+            raise UsageError(f"{path}: render_settings(): {error}") from None
+        out = Path(args.out) if args.out else Path("out") / path.stem
+        if not args.no_frames:
+            frame_dir = out
+            frame_dir.mkdir(parents=True, exist_ok=True)
+        if not args.no_video:
+            video_path = Path(args.video) if args.video else out / f"{path.stem}.mp4"
+            video_path.parent.mkdir(parents=True, exist_ok=True)
+            video = VideoWriter(video_path, fps=fps)
+
+    from tqdm import tqdm
+
+    timing = {"simulate": [], "render": [], "write": 0.0}
+    n = scene.num_particles
+    start = time.perf_counter()
+    # A bar on a terminal (tqdm leaves logs and pipes alone): frames per second, particles.
+    bar = tqdm(total=frames, desc=path.stem, unit="frame", dynamic_ncols=True, file=sys.stderr, disable=None,
+               postfix={"particles": f"{n:,}"})
+    try:
+        for k in range(frames):
+            t0 = time.perf_counter()
+            scene.step()
+            t1 = time.perf_counter()
+            timing["simulate"].append(t1 - t0)
+            if render:
+                image = renderer.render(scene)
+                t2 = time.perf_counter()
+                timing["render"].append(t2 - t1)
+                if frame_dir is not None:
+                    write_png(frame_dir / FRAME_PATTERN.format(k), image)
+                if video is not None:
+                    video.write(image)
+                timing["write"] += time.perf_counter() - t2
+            bar.update(1)
+        if video is not None:
+            t0 = time.perf_counter()
+            video.close()
+            timing["write"] += time.perf_counter() - t0
+    except BaseException:
+        if video is not None:
+            video.abort()
+        raise
+    finally:
+        bar.close()
+    wall = time.perf_counter() - start
+    if frame_dir is not None:
+        remove_stale_frames(frame_dir, frames)
+    print(summary(scene, frames, wall, timing, renderer, frame_dir, video_path, fps))
+    return 0
+
+
+def remove_stale_frames(folder: Path, count: int):
+    """Frames numbered past this run's last, left by a longer earlier run."""
+    k = count
+    while (folder / FRAME_PATTERN.format(k)).exists():
+        (folder / FRAME_PATTERN.format(k)).unlink()
+        k += 1
+
+
+def _steady(times: list[float]):
+    """(total s, per-frame s after the first, first s): the first frame compiles kernels or
+    opens the window, so rates come from the others."""
+    rest = times[1:] if len(times) > 1 else times
+    return sum(times), sum(rest) / len(rest), times[0]
+
+
+def summary(scene, frames, wall, timing, renderer, frame_dir, video_path, fps) -> str:
+    n = scene.num_particles
+    total, per_frame, first = _steady(timing["simulate"])
+    rate = n * scene.substeps / per_frame if per_frame > 0 else float("nan")
+    lines = [f"simulated {scene.time:.4g} s ({frames} frames x {scene.substeps} substeps of {scene.dt:.4g} s) "
+             f"of {n:,} particles in {wall:.2f} s wall",
+             f"  simulation {total:.2f} s (first frame {first:.2f} s, with kernel compiles), "
+             f"then {per_frame * 1e3:.3g} ms/frame: {rate:.3g} particle-steps/s"]
+    if renderer is not None:
+        total, per_frame, first = _steady(timing["render"])
+        lines.append(f"  rendering {total:.2f} s (first frame {first:.2f} s, opening the window), then "
+                     f"{per_frame * 1e3:.3g} ms/frame: {1 / per_frame:.3g} frames/s at "
+                     f"{renderer.width}x{renderer.height}; writing {timing['write']:.2f} s")
+    if frame_dir is not None:
+        lines.append(f"  frames: {frame_dir / FRAME_PATTERN.format(0)} .. {FRAME_PATTERN.format(frames - 1)}")
+    if video_path is not None:
+        lines.append(f"  video: {video_path} ({frames} frames at {fps:g} fps)")
+    stats = scene.stats()
+    if any(stats.values()):
+        lines.append("  events: " + ", ".join(f"{k} {v}" for k, v in stats.items()))
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- info
+VULKAN_PROBE = """
+import numpy as np, tai_coll as tc
+from tai_coll.render import Renderer
+tc.init(arch="cpu")
+s = tc.Scene()
+s.add_particles(positions=[[0.0, 0.0, 0.0]], radius=0.1)
+image = Renderer(width=32, height=24, color_by="constant").render(s)
+assert image.shape == (24, 32, 3) and image.std() > 0, image.shape
+print("ok")
+"""
+
+
+def vulkan_status() -> tuple[bool, str]:
+    """Render one small frame in a child process (a broken driver cannot take this one down)."""
+    import glob
+    import subprocess
+
+    drivers = sorted({Path(p).name for d in ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d")
+                      for p in glob.glob(f"{d}/*.json")})
+    where = f"drivers: {', '.join(drivers) if drivers else 'none found in /usr/share/vulkan/icd.d'}"
+    try:
+        proc = subprocess.run([sys.executable, "-c", VULKAN_PROBE], capture_output=True, text=True, timeout=120)
+    except subprocess.TimeoutExpired:
+        return False, f"a test frame did not finish in 120 s ({where})"
+    if proc.returncode == 0 and proc.stdout.strip().endswith("ok"):
+        return True, f"offscreen test frame rendered ({where})"
+    lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+    reason = lines[-1] if lines else f"exit code {proc.returncode}"
+    return False, f"{reason} ({where})"
+
+
+def info(args) -> int:
+    import platform
+
+    import numpy
+    import taichi as ti
+
+    import tai_coll as tc
+
+    from .render.errors import VULKAN_HINT
+
+    def version(module_name):
+        try:
+            from importlib.metadata import version as v
+
+            return v(module_name)
+        except Exception:
+            return "not installed"
+
+    print(f"tai_coll {tc.__version__}")
+    print(f"python {platform.python_version()}, numpy {numpy.__version__}, "
+          f"taichi {'.'.join(map(str, ti.__version__))}, trimesh {version('trimesh')}, "
+          f"imageio-ffmpeg {version('imageio-ffmpeg')}, tqdm {version('tqdm')}")
+    ok = True
+    try:
+        runtime = tc.init(arch=args.arch)
+        print(f"arch: {args.arch} -> {runtime.arch}")
+    except Exception as error:
+        ok = False
+        print(f"arch: {args.arch} -> failed: {error}")
+    vulkan_ok, message = vulkan_status()
+    print(f"vulkan (rendering): {'ok' if vulkan_ok else 'NOT AVAILABLE'}: {message}")
+    if not vulkan_ok:
+        print(f"  {VULKAN_HINT}")
+    ok &= vulkan_ok
+    try:
+        from .render.video import ffmpeg_exe, ffmpeg_version
+
+        print(f"ffmpeg (video): ok: {ffmpeg_version()} at {ffmpeg_exe()}")
+    except Exception as error:
+        ok = False
+        print(f"ffmpeg (video): NOT AVAILABLE: {error}")
+    print("ready" if ok else "not ready: see above")
+    return 0 if ok else 1
+
+
+# ----------------------------------------------------------------------------- entry point
+def bake(argv) -> int:
+    """`tai-coll bake ...` is `python -m tai_coll.bake ...` (the mesh colliders' baker)."""
+    if importlib.util.find_spec("tai_coll.bake") is None:
+        raise UsageError("bake needs tai_coll's mesh colliders (tai_coll.bake), which this installation lacks")
+    from . import bake as baker
+
+    return baker.main(argv)
+
+
+def main(argv=None) -> int:
+    logging.basicConfig(format="tai-coll: %(message)s", level=logging.WARNING)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        if argv[:1] == ["bake"]:  # its options are the baker's own, --help included
+            return bake(argv[1:])
+        args = build_parser().parse_args(argv)
+        if args.command == "run":
+            return run(args)
+        return info(args)
+    except UsageError as error:
+        print(f"tai-coll: error: {error}", file=sys.stderr)
+        return 2
+    except ScriptError as error:
+        print(script_traceback(error), file=sys.stderr, end="")
+        print(f"tai-coll: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("tai-coll: interrupted", file=sys.stderr)
+        return 130
+    except Exception as error:
+        from .errors import SimulationError
+        from .render.errors import RenderError
+
+        if isinstance(error, (RenderError, SimulationError)):
+            print(f"tai-coll: error: {error}", file=sys.stderr)
+            return 1
+        traceback.print_exc()
+        print(f"tai-coll: error: {type(error).__name__}: {error}", file=sys.stderr)
+        return 1

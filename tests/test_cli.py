@@ -1,0 +1,164 @@
+"""The tai-coll command, run as `python -m tai_coll` in a child process (its own Taichi)."""
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# Rendering needs Vulkan (tools/setup.sh installs lavapipe); without it these fail showing the
+# renderer's install hint, unless TAI_COLL_SKIP_RENDER_TESTS=1 asks to skip them.
+renders = pytest.mark.skipif(os.environ.get("TAI_COLL_SKIP_RENDER_TESTS") == "1",
+                             reason="TAI_COLL_SKIP_RENDER_TESTS=1")
+
+TINY_SCENE = """
+import numpy as np
+import tai_coll as tc
+
+FRAMES = 3
+
+def scene():
+    s = tc.Scene(dt=1 / 600, substeps=10)
+    s.add_collider(tc.Plane(point=(0, 0, 0), normal=(0, 1, 0)))
+    s.add_collider(tc.Box(center=(0.3, 0.1, 0), half_extents=(0.1, 0.1, 0.1)), velocity=(-0.5, 0, 0))
+    rng = np.random.default_rng(0)
+    s.add_particles(positions=rng.uniform([-0.3, 0.05, -0.2], [0.1, 0.4, 0.2], (50, 3)), radius=0.01)
+    return s
+
+def render_settings():
+    return {"color_by": "height", "colormap": "plasma"}
+"""
+
+
+def tai_coll(*args, cwd=None, timeout=300):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-m", "tai_coll", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, env=env, timeout=timeout)
+
+
+def script(tmp_path, text, name="scene.py"):
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+@renders
+def test_run_writes_frames_and_a_video(tmp_path):
+    imageio = pytest.importorskip("imageio")
+    path = script(tmp_path, TINY_SCENE)
+    out = tai_coll("run", path, "--frames", 5, "--res", "96x64", "--out", tmp_path / "frames", "--video",
+                   tmp_path / "clip.mp4", "--fps", 25, "--arch", "cpu", "--threads", 1)
+    assert out.returncode == 0, out.stderr
+    pngs = sorted((tmp_path / "frames").glob("frame_*.png"))
+    assert [p.name for p in pngs] == [f"frame_{k:05d}.png" for k in range(5)]
+    first = imageio.v3.imread(pngs[0])
+    assert first.shape == (64, 96, 3) and first.std() > 2
+    with imageio.get_reader(str(tmp_path / "clip.mp4"), format="FFMPEG") as reader:
+        decoded = [f for f in reader]
+        assert reader.get_meta_data()["fps"] == 25
+    assert len(decoded) == 5 and decoded[0].shape == (64, 96, 3)
+    assert "particle-steps/s" in out.stdout and "frames/s at 96x64" in out.stdout
+    assert "(5 frames x 10 substeps of 0.001667 s) of 50 particles" in out.stdout
+
+    # the script's FRAMES and the default folders: out/SCENE/ with frames and SCENE.mp4
+    again = tai_coll("run", path, "--res", "64x48", "--arch", "cpu", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert len(list((tmp_path / "out" / "scene").glob("frame_*.png"))) == 3
+    assert (tmp_path / "out" / "scene" / "scene.mp4").is_file()
+
+
+@renders
+def test_run_without_rendering_and_as_gif(tmp_path):
+    path = script(tmp_path, TINY_SCENE)
+    out = tai_coll("run", path, "--frames", 2, "--no-render", "--out", tmp_path / "none", "--arch", "cpu")
+    assert out.returncode == 0, out.stderr
+    assert not (tmp_path / "none").exists() and "rendering" not in out.stdout
+    gif = tai_coll("run", path, "--frames", 2, "--res", "80x60", "--no-frames", "--video", tmp_path / "c.gif",
+                   "--arch", "cpu")
+    assert gif.returncode == 0, gif.stderr
+    assert (tmp_path / "c.gif").read_bytes()[:6] == b"GIF89a"
+
+
+@pytest.mark.parametrize("args, reason", [
+    (["--res", "0x0"], "--res must have a width and height from 1"),
+    (["--res", "wide"], "--res must be WIDTHxHEIGHT"),
+    (["--frames", "0"], "--frames must be >= 1"),
+    (["--video", "clip.avi"], "--video must end in .mp4 or .gif"),
+])
+def test_bad_arguments_exit_2_with_one_line(tmp_path, args, reason):
+    path = script(tmp_path, TINY_SCENE)
+    out = tai_coll("run", path, *args)
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines() == [f"tai-coll: error: {out.stderr.split('error: ', 1)[1].strip()}"]
+    assert reason in out.stderr
+
+
+def test_bad_scene_files(tmp_path):
+    missing = tai_coll("run", tmp_path / "nowhere.py")
+    assert missing.returncode == 2 and "scene file not found" in missing.stderr
+    assert len(missing.stderr.strip().splitlines()) == 1
+
+    no_function = script(tmp_path, "import tai_coll as tc\nSIZE = 3\n", "empty.py")
+    out = tai_coll("run", no_function, "--arch", "cpu")
+    assert out.returncode == 2 and "defines no scene() function" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+
+    raising = script(tmp_path, """
+        import tai_coll as tc
+
+        def helper():
+            return tc.Sphere(radius=-1.0)
+
+        def scene():
+            s = tc.Scene()
+            s.add_collider(helper())
+            return s
+    """, "raising.py")
+    out = tai_coll("run", raising, "--arch", "cpu")
+    assert out.returncode == 1
+    assert "Traceback" in out.stderr and str(raising) in out.stderr and "helper()" in out.stderr
+    assert "radius must be > 0" in out.stderr and "cli.py" not in out.stderr and "importlib" not in out.stderr
+
+    broken = script(tmp_path, "def scene(:\n    pass\n", "broken.py")
+    out = tai_coll("run", broken, "--arch", "cpu")
+    assert out.returncode == 1 and "SyntaxError" in out.stderr and "broken.py failed while loading" in out.stderr
+
+
+@renders
+def test_info_is_a_preflight():
+    out = tai_coll("info", "--arch", "cpu")
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "arch: cpu -> cpu" in out.stdout
+    assert "vulkan (rendering): ok" in out.stdout and "ffmpeg (video): ok" in out.stdout
+    assert out.stdout.strip().endswith("ready")
+
+
+def test_console_script_entry_point_is_declared():
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'tai-coll = "tai_coll.cli:main"' in text
+    from tai_coll import cli
+
+    assert cli.build_parser().parse_args(["run", "x.py", "--res", "10x20"]).res == "10x20"
+
+
+def test_render_size_limit_matches_the_renderer():
+    from tai_coll import cli
+    from tai_coll.render.renderer import MAX_SIZE
+
+    with pytest.raises(cli.UsageError):
+        cli.parse_resolution(f"{MAX_SIZE + 1}x10")
+    assert cli.parse_resolution(f"{MAX_SIZE}x1") == (MAX_SIZE, 1)
+
+
+def test_bake_is_the_mesh_baker_when_installed():
+    import importlib.util
+
+    out = tai_coll("bake", "--help")
+    if importlib.util.find_spec("tai_coll.bake") is None:
+        assert out.returncode == 2 and "bake needs tai_coll's mesh colliders" in out.stderr
+    else:
+        assert out.returncode == 0 and "MESH" in out.stdout, out.stderr
