@@ -14,6 +14,7 @@ Importing this package never touches a GPU or Vulkan; `tc.init()` (or first use)
 from . import params
 from .errors import SimulationError
 from .geometry import Box, Capsule, Collider, Cylinder, Plane, Sphere, rotation_matrix
+from .geometry import HeightField, TriangleMesh
 from .geometry.implicit import Implicit
 from .geometry.mesh_sdf import MeshSDF, bake_mesh
 from .materials import Material
@@ -29,5 +30,6 @@ __all__ = [
     "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PenaltySolver", "Plane",
     "RepulsionField", "RuntimeInfo", "Scene", "SimulationError", "Sphere", "collide", "collide_pair", "init",
     "params", "rotation_matrix",
+    "HeightField", "TriangleMesh",
     "Implicit", "MeshSDF", "bake_mesh",
 ]

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import validate
-from . import kinds, queries
+from . import kinds
 from .frames import align_y
 
 
@@ -54,6 +54,10 @@ class Collider:
         if x0.shape != x1.shape:
             raise ValueError(f"starts and ends must have the same shape; got {x0.shape} and {x1.shape}")
         radius = validate.real("radius", radius, low=0.0)
+        # Imported here, not at the top: queries imports sdf.py, which imports the modules of
+        # the array-backed colliders, which subclass Collider.
+        from . import queries
+
         return queries.segment_crossing(self, x0, x1, radius)
 
     def shape_data(self):
@@ -65,6 +69,8 @@ class Collider:
 
     def _query(self, points):
         pts = validate.points("points", points)
+        from . import queries
+
         return queries.signed_distance_and_normal(self, pts)
 
     def __repr__(self) -> str:

@@ -10,7 +10,7 @@ contact (phi(x0) < r) reports hit at t = 0. Plane and sphere are solved in close
 
 import taichi as ti
 
-from . import kinds
+from . import height_field, kinds, triangle_mesh
 from .grid_sdf import grid_crossing
 from .implicit_eval import implicit_crossing
 from .sdf import local_sdf, vec3, vec4
@@ -153,6 +153,12 @@ def local_crossing(g: ti.template(), ci, kind: ti.i32, params: vec4, x0: vec3, x
             hit, t, n = sphere_crossing(x0, x1, params[0], r)
         elif kind == kinds.BOX or kind == kinds.CYLINDER or kind == kinds.CAPSULE:
             hit, t, n = advance_crossing(g, ci, kind, params, x0, x1, r)
+    if ti.static(g.groups & kinds.GROUP_TRIANGLES):
+        if kind == kinds.TRIANGLE_MESH:
+            hit, t, n = triangle_mesh.mesh_crossing(g, ci, x0, x1, r)
+    if ti.static(g.groups & kinds.GROUP_HEIGHT):
+        if kind == kinds.HEIGHT_FIELD:
+            hit, t, n = height_field.field_crossing(g, ci, x0, x1, r)
     if ti.static(g.groups & kinds.GROUP_GRID):
         if kind == kinds.SDF_GRID:
             hit, t, n = grid_crossing(g, ci, x0, x1, r)  # non-convex: no slope early-out

@@ -15,15 +15,20 @@ BOX = 2
 CYLINDER = 3
 CAPSULE = 4
 
+TRIANGLE_MESH = 8  # exact triangles in a uniform grid (triangle_mesh.py)
+HEIGHT_FIELD = 9   # terrain y = h(x, z), two triangles per cell (height_field.py)
 SDF_GRID = 12      # signed-distance grid: MeshSDF, numpy Implicit (grid_sdf.py)
 
 NAMES = {PLANE: "plane", SPHERE: "sphere", BOX: "box", CYLINDER: "cylinder", CAPSULE: "capsule",
-         SDF_GRID: "sdf grid"}
+         TRIANGLE_MESH: "triangle mesh", HEIGHT_FIELD: "height field", SDF_GRID: "sdf grid"}
 
 GROUP_ANALYTIC = 1  # plane, sphere, box, cylinder, capsule: closed forms, all convex
+GROUP_TRIANGLES = 8  # triangle meshes
+GROUP_HEIGHT = 16    # height fields
 GROUP_GRID = 64      # signed-distance grids
 GROUPS = {PLANE: GROUP_ANALYTIC, SPHERE: GROUP_ANALYTIC, BOX: GROUP_ANALYTIC, CYLINDER: GROUP_ANALYTIC,
-          CAPSULE: GROUP_ANALYTIC, SDF_GRID: GROUP_GRID}
+          CAPSULE: GROUP_ANALYTIC, TRIANGLE_MESH: GROUP_TRIANGLES, HEIGHT_FIELD: GROUP_HEIGHT,
+          SDF_GRID: GROUP_GRID}
 
 # Implicit colliders of a user's Taichi function: one kind and one group bit per function,
 # registered at run time (implicit_eval.py), so a kernel inlines only the functions its scene uses.

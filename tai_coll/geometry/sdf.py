@@ -9,7 +9,7 @@ the step kernels and the host-side `signed_distance` / `normal` both call them.
 
 import taichi as ti
 
-from . import kinds
+from . import height_field, kinds, triangle_mesh
 from .grid_sdf import grid_sdf
 from .implicit_eval import implicit_sdf
 
@@ -116,6 +116,12 @@ def local_sdf(g: ti.template(), ci, kind: ti.i32, p: vec3, params: vec4):
             phi, n = cylinder_sdf(p, params[0], params[1])
         elif kind == kinds.CAPSULE:
             phi, n = capsule_sdf(p, params[0], params[1])
+    if ti.static(g.groups & kinds.GROUP_TRIANGLES):
+        if kind == kinds.TRIANGLE_MESH:
+            phi, n = triangle_mesh.mesh_sdf(g, ci, p)
+    if ti.static(g.groups & kinds.GROUP_HEIGHT):
+        if kind == kinds.HEIGHT_FIELD:
+            phi, n = height_field.field_sdf(g, ci, p)
     if ti.static(g.groups & kinds.GROUP_GRID):
         if kind == kinds.SDF_GRID:
             phi, n = grid_sdf(g, ci, p)

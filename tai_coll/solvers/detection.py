@@ -12,6 +12,7 @@ Each function evaluates the SDF at one call site inside a loop: Taichi inlines e
 
 import taichi as ti
 
+from ..geometry import kinds
 from ..geometry.crossing import world_crossing
 from ..geometry.sdf import world_sdf
 
@@ -90,8 +91,11 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
     Its contact is where the segment first touches: x0 itself for a particle already in the
     band (normal at x0), else the crossing point (PHYSICS.md 1). That normal, not the one at
     the deepest point x1, is what keeps a sliding particle on a curved surface and gives the
-    right face at a box edge. Among candidates that `v` approaches, the earliest contact wins
-    (ties: the deepest x1). x0 deeper than the slop: skipped, the last-resort repulsion owns it.
+    right face at a box edge. Non-convex colliders (meshes, terrain) add one case: when x1
+    sinks deeper but the velocity no longer approaches that contact (it slid along one face
+    of a concave crease into the next), the normal at x1 is used. Among candidates that `v`
+    approaches, the earliest contact wins (ties: the deepest x1). x0 deeper than the slop:
+    skipped, the last-resort repulsion owns it.
     """
     length = (x1 - x0).norm()
     clearance = INFINITY  # smallest gap lower bound over colliders, at x1
@@ -116,11 +120,12 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
         gap1 = 0.0
         gap0 = 0.0
         n0 = vec3(0.0, 1.0, 0.0)
+        n1 = vec3(0.0, 1.0, 0.0)
         candidate = False
         for k in range(2):
             phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
             if k == 0:
-                gap1 = phi - r
+                gap1, n1 = phi - r, n
                 clearance, nearest, second = keep_two_smallest(clearance, nearest, second, gap1, ci)
                 # Interference, or a clear end that the segment may still reach (phi is
                 # 1-Lipschitz, so a gap beyond the segment's length rules a crossing out).
@@ -146,10 +151,19 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
                 t, n = t_hit, n_hit
             if candidate:
                 vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
-                if (t < best_t or (t == best_t and gap1 < best_gap)) and approaching(v, vs, n):
-                    found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n, vs
-                if (t < alt_t or (t == alt_t and gap1 < alt_gap)) and approaching(v_alt, vs, n):
-                    alt, alt_t, alt_gap, alt_n, alt_vs = ci, t, gap1, n, vs
+                n_v = n
+                n_alt = n
+                if gap1 < ti.min(gap0, 0.0) and not kinds.is_convex(c.kind[ci]):
+                    # A concave crease: x1 sinks into another face than the one first met,
+                    # which the velocity no longer approaches; respond to x1's face.
+                    if not approaching(v, vs, n):
+                        n_v = n1
+                    if not approaching(v_alt, vs, n):
+                        n_alt = n1
+                if (t < best_t or (t == best_t and gap1 < best_gap)) and approaching(v, vs, n_v):
+                    found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n_v, vs
+                if (t < alt_t or (t == alt_t and gap1 < alt_gap)) and approaching(v_alt, vs, n_alt):
+                    alt, alt_t, alt_gap, alt_n, alt_vs = ci, t, gap1, n_alt, vs
     return found, found_n, found_vs, alt, alt_n, alt_vs, clearance, nearest, second
 
 
