@@ -29,7 +29,7 @@ from ..response.repulsion import RepulsionField, pack
 from ..scene import particles as P
 from ..geometry import kinds
 from .detection import detect, earliest_approach, is_still, keep_out, start_penetration, surface_velocity
-from .integrate import store, symplectic_euler
+from .integrate import flag, state_status, store, symplectic_euler
 from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
 
 vec3 = ti.math.vec3
@@ -206,49 +206,46 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
     # Particles are independent of each other here, so with colliders that hold still during
     # the call, one launch runs several substeps and keeps each particle in registers,
     # including its clearance: while the distance to every collider exceeds the substep's
-    # displacement, nothing can be touched and the substep is plain integration.
+    # displacement, nothing can be touched (phi is 1-Lipschitz) and the substep is plain
+    # integration.
     # A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
     # still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the
     # same in every later substep of the launch, so the particle is done: an exact shortcut,
-    # not an approximation (no sleeping thresholds).
+    # not an approximation (no sleeping thresholds). The state stays in registers between
+    # substeps and is written once.
     for i in range(n_particles):
-        clearance = -1.0
-        for _ in range(n_substeps):
-            x_before = x[i]
-            v_before = v[i]
-            clearance = substep_particle(ParticleArrays(x, v, mass, radius, flags, stats),
-                                         ColliderArrays(kind, params, material, center0, rotation0, center1,
-                                                        rotation1, velocity, angular_velocity, ishape, fshape,
-                                                        fpool, ipool, groups),
-                                         i, n_colliders, gravity, dt, scheme, wet_law, max_iterations,
-                                         elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction,
-                                         rest_speed, use_domain, domain_lo, domain_hi, clearance)
-            if all(x[i] == x_before) and all(v[i] == v_before):
-                break
-
-
-@ti.func
-def substep_particle(p: ti.template(), c: ti.template(), i, n_colliders, gravity: vec3, dt,
-                     scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
-                     repulsion, repulsion_speed_limit, slop_fraction, rest_speed, use_domain: ti.template(),
-                     domain_lo: vec3, domain_hi: vec3, clearance):
-    """One substep of particle i; returns its clearance after the substep (-1: unknown)."""
-    if p.flags[i] == P.ACTIVE:
-        # gather
-        x0 = p.x[i]
-        v0 = p.v[i]
-        # integrate without collisions
-        x1, v1 = symplectic_euler(x0, v0, gravity, dt)
-        step = (x1 - x0).norm()
-        if clearance > step:
-            clearance -= step  # free flight: phi is 1-Lipschitz, nothing within reach
-        else:
-            x1, v1, clearance = resolve_particle(p, c, i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law,
-                                                 max_iterations, elastic_iterations, repulsion,
-                                                 repulsion_speed_limit, slop_fraction, rest_speed)
-        # scatter
-        store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
-    return clearance
+        if flags[i] == P.ACTIVE:
+            x0 = x[i]
+            v0 = v[i]
+            clearance = -1.0
+            status = P.ACTIVE
+            for _ in range(n_substeps):
+                # free flight, while the clearance lasts: plain integration
+                x1, v1 = symplectic_euler(x0, v0, gravity, dt)
+                step = (x1 - x0).norm()
+                unchanged = False
+                if clearance > step:
+                    clearance -= step
+                else:
+                    # query and respond
+                    x1, v1, clearance = resolve_particle(
+                        ParticleArrays(x, v, mass, radius, flags, stats),
+                        ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
+                                       angular_velocity, ishape, fshape, fpool, ipool, groups),
+                        i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations, elastic_iterations,
+                        repulsion, repulsion_speed_limit, slop_fraction, rest_speed)
+                    unchanged = all(x1 == x0) and all(v1 == v0)
+                status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
+                if status == P.NON_FINITE:
+                    break  # frozen at its last finite state
+                x0 = x1
+                v0 = v1
+                if status != P.ACTIVE or unchanged:
+                    break
+            x[i] = x0
+            v[i] = v0
+            if status != P.ACTIVE:
+                flag(ParticleArrays(x, v, mass, radius, flags, stats), i, status)
 
 
 @ti.func
