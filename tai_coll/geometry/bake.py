@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
+from .triangles import closest_on_triangle
+
 vec3 = ti.math.vec3
 
 BAND_CELLS = 1.0     # exact rasterisation reaches this far from each triangle (cells)
@@ -50,61 +52,7 @@ SIGN_PARITY = 2    # ray crossings mod 2, orientation ignored
 
 
 # ------------------------------------------------------------------------ small geometry
-@ti.func
-def closest_on_triangle(p: vec3, a: vec3, b: vec3, c: vec3) -> vec3:
-    """Closest point to p on triangle abc (Ericson, Real-Time Collision Detection 5.1.5)."""
-    ab = b - a
-    ac = c - a
-    ap = p - a
-    d1 = ab.dot(ap)
-    d2 = ac.dot(ap)
-    result = a
-    if d1 > 0.0 or d2 > 0.0:
-        bp = p - b
-        d3 = ab.dot(bp)
-        d4 = ac.dot(bp)
-        cp = p - c
-        d5 = ab.dot(cp)
-        d6 = ac.dot(cp)
-        vc = d1 * d4 - d3 * d2
-        vb = d5 * d2 - d1 * d6
-        va = d3 * d6 - d5 * d4
-        if d3 >= 0.0 and d4 <= d3:
-            result = b
-        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-            result = a + d1 / (d1 - d3) * ab
-        elif d6 >= 0.0 and d5 <= d6:
-            result = c
-        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-            result = a + d2 / (d2 - d6) * ac
-        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-            result = b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)
-        else:
-            denom = va + vb + vc
-            if denom > 0.0:
-                result = a + (vb / denom) * ab + (vc / denom) * ac
-            else:
-                # Degenerate (zero-area) triangle: the closest of its three edges.
-                result = closest_on_segment(p, a, b)
-                q2 = closest_on_segment(p, b, c)
-                q3 = closest_on_segment(p, c, a)
-                if (q2 - p).norm_sqr() < (result - p).norm_sqr():
-                    result = q2
-                if (q3 - p).norm_sqr() < (result - p).norm_sqr():
-                    result = q3
-    return result
-
-
-@ti.func
-def closest_on_segment(p: vec3, a: vec3, b: vec3) -> vec3:
-    ab = b - a
-    len2 = ab.norm_sqr()
-    t = 0.0
-    if len2 > 0.0:
-        t = ti.math.clamp((p - a).dot(ab) / len2, 0.0, 1.0)
-    return a + t * ab
-
-
+# closest_on_triangle: the one copy in triangles.py, shared with tc.TriangleMesh.
 @ti.func
 def vertex(verts: ti.template(), index) -> vec3:
     return vec3(verts[index, 0], verts[index, 1], verts[index, 2])

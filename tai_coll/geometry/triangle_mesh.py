@@ -36,6 +36,7 @@ import taichi as ti
 from .. import runtime, validate
 from . import kinds
 from .colliders import Collider
+from .mesh_sdf import load_mesh
 from .triangles import MISS, closest_on_triangle, ray_x_crossing, swept_sphere_triangle
 
 vec3 = ti.math.vec3
@@ -379,16 +380,7 @@ def _load(mesh):
     """(vertices (V, 3) float64, faces (F, 3) int64) from a trimesh.Trimesh, a file path or
     a (vertices, faces) pair."""
     if isinstance(mesh, (str, os.PathLike)):
-        import trimesh
-
-        path = os.fspath(mesh)
-        if not os.path.exists(path):
-            raise FileNotFoundError(f"mesh file not found: {path!r}")
-        try:
-            loaded = trimesh.load(path, force="mesh")
-        except Exception as exc:  # trimesh raises many types for unreadable files
-            raise ValueError(f"mesh: could not read {path!r} as a triangle mesh ({exc})") from None
-        mesh = loaded
+        mesh = load_mesh(mesh)[0]  # FileNotFoundError / ValueError, as for tc.MeshSDF
     if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         vertices, faces = mesh.vertices, mesh.faces
     elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
