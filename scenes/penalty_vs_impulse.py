@@ -52,7 +52,6 @@ def scene(solver=None) -> tc.Scene:
 def run(s: tc.Scene) -> dict:
     """Step for SECONDS; returns downhill accelerations and depths of the incline particles,
     and the dropped ball's highest point (m above the floor) after its lowest one."""
-    start = s.positions()
     ball = []
     for _ in range(int(round(SECONDS / s.frame_time))):
         s.step()

@@ -52,6 +52,20 @@ def vector3(name: str, value, *, allow_none=False, nonzero=False) -> np.ndarray 
     return arr
 
 
+def box(name: str, value):
+    """An axis-aligned box given as (lower corner, upper corner): two float64 3-vectors with
+    upper > lower on every axis."""
+    try:
+        lo, hi = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair (lower corner, upper corner)") from None
+    lo = vector3(f"{name} lower corner", lo)
+    hi = vector3(f"{name} upper corner", hi)
+    if np.any(hi <= lo):
+        raise ValueError(f"{name} upper corner must exceed the lower one; got {lo.tolist()} and {hi.tolist()}")
+    return lo, hi
+
+
 def points(name: str, value, *, allow_none=False) -> np.ndarray | None:
     """An (N, 3) array of finite numbers (float64). A single point (3,) becomes (1, 3)."""
     if value is None and allow_none:

@@ -488,6 +488,16 @@ def print_pile_table(rows):
             print(f"pile of 100,000: {rate / 1e6:.2f} M particle-steps/s (target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
 
 
+def write_json(path, report) -> Path:
+    """Write a benchmark report atomically (a temporary file moved into place)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(report, indent=2, default=float))
+    tmp.replace(path)
+    return path
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -556,11 +566,7 @@ def main(argv=None):
               "numpy_frames": args.numpy_frames, "precision": args.precision}
     report = {"machine": machine, "config": config, "compile": compile_info, "rows": rows,
               "speedup": setup["speedups"], "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    path = Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(report, indent=2, default=float))
-    tmp.replace(path)
+    path = write_json(args.json, report)
     print(f"\nwrote {path}")
     return 0
 

@@ -21,7 +21,6 @@ Prints a table and writes bench_results/render.json.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -87,12 +86,7 @@ def main(argv=None):
         r = np.ascontiguousarray(scene.radii() * (height / width), dtype=np.float32)
         c = renderer._particle_colors(scene)
         t1 = time.perf_counter()
-        canvas, view = win.get_canvas(), win.get_scene()
-        canvas.set_background_color(renderer.background)
-        view.set_camera(renderer._ggui_camera)
-        view.ambient_light((renderer.ambient,) * 3)
-        for position, color in renderer._light_list():
-            view.point_light(tuple(float(v) for v in position), color)
+        canvas, view = renderer._set_up_view(win)
         buffers = ggui.mesh_buffers()
         view.mesh_instance(buffers.vertices, normals=buffers.normals, per_vertex_color=buffers.colors,
                            two_sided=True, vertex_count=buffers.count, transforms=buffers.transform)
@@ -149,11 +143,9 @@ def main(argv=None):
               "frames": args.frames, "vulkan_driver": vulkan_driver(), "median_ms": rows,
               "render_fps": 1e3 / rows["render"], "loop_overhead_ms": overhead,
               "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    path = Path(args.json)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(report, indent=2, default=float))
-    tmp.replace(path)
+    from bench import write_json
+
+    path = write_json(args.json, report)
     print(f"wrote {path}")
     return 0
 

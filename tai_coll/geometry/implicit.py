@@ -43,17 +43,7 @@ class Implicit(Collider):
         if not callable(function):
             raise TypeError(f"function must be a Taichi function or a numpy function; got {type(function).__name__}")
         self.lipschitz = validate.real("lipschitz", lipschitz, low=0.0, low_open=True)
-        self.bounds = None
-        if bounds is not None:
-            try:
-                lo, hi = bounds
-            except (TypeError, ValueError):
-                raise ValueError("bounds must be a pair (lower corner, upper corner)") from None
-            lo = validate.vector3("bounds lower corner", lo)
-            hi = validate.vector3("bounds upper corner", hi)
-            if np.any(hi <= lo):
-                raise ValueError(f"bounds upper corner must exceed the lower one; got {lo.tolist()} and {hi.tolist()}")
-            self.bounds = (lo, hi)
+        self.bounds = None if bounds is None else validate.box("bounds", bounds)
         center = validate.vector3("center", center)
         rotation = validate.rotation("rotation", rotation)
         self.function = function
@@ -69,10 +59,11 @@ class Implicit(Collider):
             self.kind = kind_for(function, gradient)
             bound = self.UNBOUNDED
             if self.bounds is not None:
+                lo, hi = self.bounds
                 bound = float(np.max(np.linalg.norm(np.array([[x, y, z] for x in (lo[0], hi[0])
                                                                for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]),
                                                     axis=1)))
-            self.scale = 1.0 if self.bounds is None else float(np.max(hi - lo))
+            self.scale = 1.0 if self.bounds is None else float(np.max(self.bounds[1] - self.bounds[0]))
             super().__init__(center=center, rotation=rotation, params=(), bound=bound)
         else:
             self._sample_numpy(function, gradient, gradient_step, resolution, voxel_size, center, rotation)

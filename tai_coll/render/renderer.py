@@ -112,18 +112,23 @@ class Renderer:
         self._seen_range = None
 
     # ------------------------------------------------------------------ public
-    def render(self, scene) -> np.ndarray:
-        """The scene as it is now: an (H, W, 3) uint8 array, row 0 at the top."""
-        from . import window as ggui
-
-        self._prepare(scene)
-        win = ggui.open_window(self.width, self.height)
+    def _set_up_view(self, win):
+        """Background, camera and lights of the window's canvas and scene, for one frame."""
         canvas, view = win.get_canvas(), win.get_scene()
         canvas.set_background_color(self.background)
         view.set_camera(self._ggui_camera)
         view.ambient_light((self.ambient,) * 3)
         for position, color in self._light_list():
             view.point_light(tuple(float(c) for c in position), color)
+        return canvas, view
+
+    def render(self, scene) -> np.ndarray:
+        """The scene as it is now: an (H, W, 3) uint8 array, row 0 at the top."""
+        from . import window as ggui
+
+        self._prepare(scene)
+        win = ggui.open_window(self.width, self.height)
+        canvas, view = self._set_up_view(win)
         buffers = ggui.mesh_buffers()
         self._upload_colliders(scene, buffers)
         if buffers.count:

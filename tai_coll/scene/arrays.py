@@ -12,13 +12,9 @@ import warnings
 import taichi as ti
 
 # Building a bundle inside a kernel is plain Python evaluated at compile time, which is what
-# we want; Taichi warns about any such call, so silence exactly these two.
+# we want; Taichi warns about any such call, so silence exactly these.
 warnings.filterwarnings("ignore", message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays|ShapeData)"',
                         category=SyntaxWarning)
-
-vec3 = ti.math.vec3
-mat3 = ti.math.mat3
-vec4 = ti.math.vec4
 
 
 # Element types are left to the arrays passed in: annotations are evaluated at import time,

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import taichi as ti
 
-from .. import runtime
 
 ACTIVE = 0
 LEFT_DOMAIN = 1  # left the scene's domain box: frozen where it left, no longer simulated
@@ -86,7 +85,3 @@ class ParticleStore:
             for name, count in fresh.items():
                 self.totals[name] += count
         return fresh
-
-    @staticmethod
-    def dtype():
-        return runtime.float_dtype()

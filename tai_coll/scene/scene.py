@@ -38,17 +38,7 @@ class Scene:
         self.solver = solver if solver is not None else ImpulseSolver()
         if not hasattr(self.solver, "advance"):
             raise TypeError(f"solver must be a solver such as tc.ImpulseSolver(); got {type(self.solver).__name__}")
-        self.domain = None
-        if domain is not None:
-            try:
-                lo, hi = domain
-            except (TypeError, ValueError):
-                raise ValueError("domain must be a pair (lower corner, upper corner)") from None
-            lo = validate.vector3("domain lower corner", lo)
-            hi = validate.vector3("domain upper corner", hi)
-            if np.any(hi <= lo):
-                raise ValueError(f"domain upper corner must exceed the lower one; got {lo.tolist()} and {hi.tolist()}")
-            self.domain = (lo, hi)
+        self.domain = None if domain is None else validate.box("domain", domain)
         self._particles = P.ParticleStore()
         self._colliders = ColliderTable()
         self._pairs = None  # particle-particle collisions, off until enabled

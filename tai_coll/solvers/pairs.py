@@ -22,7 +22,6 @@ number on both sides, so the impulses stay equal and opposite) and over-relaxed 
 `relaxation`, never beyond the full share (an isolated pair gets exactly its impulse).
 """
 
-import numpy as np
 import taichi as ti
 
 from .. import validate
