@@ -47,9 +47,8 @@ def state_bytes(scene) -> int:
     pairs = scene._pairs
     grid = pairs.grid
     particles = scene._particles
-    arrays = [particles.x, particles.v, particles.mass, particles.radius, particles.flags, pairs.x1, pairs.v1,
-              pairs.v_start, pairs.delta, pairs.contacts, grid.bucket, grid.rank, grid.entries, grid.cells,
-              grid.counts, grid.starts, grid.neighbours, grid.neighbour_count]
+    arrays = [particles.x, particles.v, particles.mass, particles.radius, particles.flags, particles.clearance,
+              pairs.x1, pairs.v1, pairs.v_start, pairs.delta, pairs.contacts] + grid.arrays()
     for a in arrays:
         total += a.to_numpy().nbytes
     return total

@@ -3,9 +3,9 @@
 Cells are cubes of side `cell_size` (at least the largest particle diameter, so touching
 particles are never more than one cell apart); a particle's cell is floor(x / cell_size),
 so negative coordinates and particles far outside any initial bounds work the same way.
-Cells hash into a table of buckets; a bucket holds any number of particles (no per-cell
-cap): counts, an exclusive prefix sum, then a scatter place every particle in one flat
-array, sorted within each bucket by index so the result does not depend on thread timing.
+Cells map into a table of buckets (a grid that wraps around, see `bucket_of`); a bucket holds any number of particles (no per-cell
+cap): counts, an exclusive prefix sum (parallel, by blocks), then a scatter place every particle in one
+flat array, sorted within each bucket by index so the result does not depend on thread timing.
 A query visits the 27 cells around a particle and keeps the particles whose own cell is the
 visited one (two cells can share a bucket) and whose distance is within reach.
 """
@@ -27,14 +27,20 @@ def cell_of(x: vec3, inv_cell) -> ivec3:
 
 
 @ti.func
-def bucket_of(cell: ivec3, n_buckets) -> ti.i32:
-    # Large primes mixed with xor (Teschner et al. 2003), made non-negative before the modulo.
-    h = (cell.x * 73856093) ^ (cell.y * 19349663) ^ (cell.z * 83492791)
-    return ti.cast(ti.cast(h, ti.u32) % ti.cast(n_buckets, ti.u32), ti.i32)
+def bucket_of(cell: ivec3, bits: ivec3) -> ti.i32:
+    """The bucket of a cell: the low bits of its three coordinates side by side (a grid of
+    2^bits.x by 2^bits.y by 2^bits.z buckets that wraps around, so any integer cell, negative
+    or far away, has one). Unlike a scrambling hash, cells next to each other get buckets
+    next to each other: the 27 buckets of a query, and the particles of neighbouring cells,
+    lie close together in memory. Cells a whole table width apart share a bucket; queries
+    tell them apart by the cell each particle is in."""
+    mask = (1 << bits) - 1
+    return (cell.x & mask.x) | ((cell.y & mask.y) << bits.x) | ((cell.z & mask.z) << (bits.x + bits.y))
 
 
 @ti.kernel
 def _count(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell: float, n_buckets: ti.i32,
+           bits: ivec3,
            # outputs
            bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray(),
            cells: ti.types.ndarray()):
@@ -44,23 +50,40 @@ def _count(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell
         if flags[i] == P.ACTIVE:
             cell = cell_of(x[i], inv_cell)
             cells[i] = cell
-            h = bucket_of(cell, n_buckets)
+            h = bucket_of(cell, bits)
             bucket[i] = h
             rank[i] = ti.atomic_add(counts[h], 1)
         else:
             bucket[i] = -1
 
 
+SCAN_BLOCK = 1024  # buckets per block of the parallel prefix sum
+
+
 @ti.kernel
-def _prefix_sum(counts: ti.types.ndarray(), n_buckets: ti.i32,
+def _prefix_sum(counts: ti.types.ndarray(), n_buckets: ti.i32, block_sums: ti.types.ndarray(),
                 # outputs
                 starts: ti.types.ndarray()):
+    """Exclusive prefix sum of the counts into starts[0..n_buckets] (starts[n_buckets] is
+    the total), in three phases: block totals in parallel, a serial scan of the (few)
+    block totals, then each block's own scan in parallel from its offset."""
+    n_blocks = (n_buckets + SCAN_BLOCK - 1) // SCAN_BLOCK
+    for b in range(n_blocks):
+        total = 0
+        for k in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, n_buckets)):
+            total += counts[k]
+        block_sums[b] = total
+    starts[n_buckets] = 0  # the running total
     ti.loop_config(serialize=True)
-    for b in range(n_buckets):
-        if b == 0:
-            starts[0] = 0
-        else:
-            starts[b] = starts[b - 1] + counts[b - 1]
+    for b in range(n_blocks):
+        total = block_sums[b]
+        block_sums[b] = starts[n_buckets]
+        starts[n_buckets] += total
+    for b in range(n_blocks):
+        running = block_sums[b]
+        for k in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, n_buckets)):
+            starts[k] = running
+            running += counts[k]
 
 
 @ti.kernel
@@ -73,14 +96,14 @@ def _scatter(bucket: ti.types.ndarray(), rank: ti.types.ndarray(), starts: ti.ty
 
 
 @ti.kernel
-def _sort_buckets(starts: ti.types.ndarray(), counts: ti.types.ndarray(), n_buckets: ti.i32,
+def _sort_buckets(starts: ti.types.ndarray(), n_buckets: ti.i32,
                   # in-out
                   entries: ti.types.ndarray()):
     # Insertion sort inside each bucket: buckets are short, and sorted buckets make the
     # neighbour order, and so every sum over neighbours, independent of thread timing.
     for b in range(n_buckets):
         begin = starts[b]
-        for k in range(begin + 1, begin + counts[b]):
+        for k in range(begin + 1, starts[b + 1]):
             value = entries[k]
             m = k - 1
             while m >= begin and entries[m] > value:
@@ -90,37 +113,64 @@ def _sort_buckets(starts: ti.types.ndarray(), counts: ti.types.ndarray(), n_buck
 
 
 @ti.kernel
+def _gather(x: ti.types.ndarray(), radius: ti.types.ndarray(), cells: ti.types.ndarray(),
+            entries: ti.types.ndarray(), starts: ti.types.ndarray(), n_buckets: ti.i32,
+            # outputs
+            sorted_x: ti.types.ndarray(), sorted_radius: ti.types.ndarray(), sorted_cells: ti.types.ndarray()):
+    """Copies of positions, radii and cells in bucket order, so a query scans memory that
+    lies together instead of jumping through the particle arrays."""
+    for k in range(starts[n_buckets]):
+        i = entries[k]
+        sorted_x[k] = x[i]
+        sorted_radius[k] = radius[i]
+        sorted_cells[k] = cells[i]
+
+
+@ti.kernel
 def _neighbours(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
-                n_buckets: ti.i32, margin: float, starts: ti.types.ndarray(),
-                counts: ti.types.ndarray(), entries: ti.types.ndarray(), cells: ti.types.ndarray(),
+                n_buckets: ti.i32, bits: ivec3, margin: float, starts: ti.types.ndarray(),
+                entries: ti.types.ndarray(),
+                sorted_x: ti.types.ndarray(), sorted_radius: ti.types.ndarray(), sorted_cells: ti.types.ndarray(),
                 # outputs
                 neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
-                overflow: ti.types.ndarray()):
-    for i in range(n):
+                touching: ti.types.ndarray(), overflow: ti.types.ndarray()):
+    # One particle per iteration, visited in bucket order (its own data and the cells
+    # around it were just read by its bucket neighbours).
+    for slot in range(starts[n_buckets]):
+        i = entries[slot]
         found = 0
-        if flags[i] == P.ACTIVE:
-            xi = x[i]
-            ri = radius[i]
-            home = cells[i]
-            for dx, dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
-                cell = home + ivec3(dx, dy, dz)
-                h = bucket_of(cell, n_buckets)
-                for k in range(starts[h], starts[h] + counts[h]):
-                    j = entries[k]
-                    if j != i and all(cells[j] == cell):
-                        if (xi - x[j]).norm() < ri + radius[j] + margin:
-                            if found < NEIGHBOUR_CAPACITY:
-                                neighbours[i, found] = j
-                            found += 1
+        touch = 0
+        xi = sorted_x[slot]
+        ri = sorted_radius[slot]
+        home = sorted_cells[slot]
+        for dx, dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
+            cell = home + ivec3(dx, dy, dz)
+            h = bucket_of(cell, bits)
+            for k in range(starts[h], starts[h + 1]):
+                if k != slot and all(sorted_cells[k] == cell):
+                    dist = (xi - sorted_x[k]).norm()
+                    contact = ri + sorted_radius[k]
+                    if dist < contact + margin:
+                        if found < NEIGHBOUR_CAPACITY:
+                            neighbours[i, found] = entries[k]
+                        found += 1
+                        if dist < contact:
+                            touch += 1
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
         neighbour_count[i] = found
+        touching[i] = touch
+    for i in range(n):
+        if flags[i] != P.ACTIVE:
+            neighbour_count[i] = 0
+            touching[i] = 0
 
 
 class HashGrid:
-    """Buckets, their starts and counts, the sorted entries and the neighbour lists of up
-    to `capacity` particles; arrays grow with the particle count, never per step."""
+    """Buckets, their starts, the sorted entries (with copies of positions, radii and cells
+    in that order) and the neighbour lists of up to `capacity` particles; arrays grow with
+    the particle count, never per step."""
 
     def __init__(self):
         self.capacity = 0
@@ -133,27 +183,45 @@ class HashGrid:
             return
         capacity = max(n, 2 * self.capacity, 1024)
         self.capacity = capacity
-        self.n_buckets = 2 * capacity  # about half the buckets empty: short probes
+        # about half the buckets empty: short probes; a power of two: the bucket is a mask
+        total_bits = int(np.ceil(np.log2(2 * capacity)))
+        self.n_buckets = 1 << total_bits
+        self.bits = ivec3((total_bits + 2) // 3, total_bits // 3, (total_bits + 1) // 3)
         self.bucket = ti.ndarray(ti.i32, shape=capacity)
         self.rank = ti.ndarray(ti.i32, shape=capacity)
         self.entries = ti.ndarray(ti.i32, shape=capacity)
         self.cells = ti.Vector.ndarray(3, ti.i32, shape=capacity)
+        self.sorted_x = ti.Vector.ndarray(3, float, shape=capacity)
+        self.sorted_radius = ti.ndarray(float, shape=capacity)
+        self.sorted_cells = ti.Vector.ndarray(3, ti.i32, shape=capacity)
         self.counts = ti.ndarray(ti.i32, shape=self.n_buckets)
-        self.starts = ti.ndarray(ti.i32, shape=self.n_buckets)
+        self.starts = ti.ndarray(ti.i32, shape=self.n_buckets + 1)
+        self.block_sums = ti.ndarray(ti.i32, shape=self.n_buckets // SCAN_BLOCK + 2)
         self.neighbours = ti.ndarray(ti.i32, shape=(capacity, NEIGHBOUR_CAPACITY))
         self.neighbour_count = ti.ndarray(ti.i32, shape=capacity)
+        self.touching = ti.ndarray(ti.i32, shape=capacity)
+
+    def arrays(self) -> list:
+        """Every array the grid holds (for memory accounting)."""
+        return [self.bucket, self.rank, self.entries, self.cells, self.sorted_x, self.sorted_radius,
+                self.sorted_cells, self.counts, self.starts, self.block_sums, self.neighbours,
+                self.neighbour_count, self.touching]
 
     def build(self, x, radius, flags, n: int, cell_size: float, margin: float):
         """Sort the first n particles (positions x, an ndarray) into buckets and collect, for
-        each, the particles closer than r_i + r_j + margin (needs cell_size >= 2 r_max + margin)."""
+        each, the particles closer than r_i + r_j + margin (needs cell_size >= 2 r_max + margin),
+        and how many of them touch it (closer than r_i + r_j) in `touching`."""
         self._ensure(n)
         inv_cell = 1.0 / cell_size
-        _count(x, flags, n, inv_cell, self.n_buckets, self.bucket, self.rank, self.counts, self.cells)
-        _prefix_sum(self.counts, self.n_buckets, self.starts)
+        _count(x, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts, self.cells)
+        _prefix_sum(self.counts, self.n_buckets, self.block_sums, self.starts)
         _scatter(self.bucket, self.rank, self.starts, n, self.entries)
-        _sort_buckets(self.starts, self.counts, self.n_buckets, self.entries)
-        _neighbours(x, radius, flags, n, self.n_buckets, margin, self.starts, self.counts, self.entries, self.cells,
-                    self.neighbours, self.neighbour_count, self.overflow)
+        _sort_buckets(self.starts, self.n_buckets, self.entries)
+        _gather(x, radius, self.cells, self.entries, self.starts, self.n_buckets, self.sorted_x,
+                self.sorted_radius, self.sorted_cells)
+        _neighbours(x, radius, flags, n, self.n_buckets, self.bits, margin, self.starts, self.entries, self.sorted_x,
+                    self.sorted_radius, self.sorted_cells, self.neighbours, self.neighbour_count, self.touching,
+                    self.overflow)
 
     def neighbour_lists(self, n: int):
         """Host copies: a list of index arrays, one per particle (for tests and debugging)."""

@@ -42,6 +42,7 @@ class ColliderTable:
     def __init__(self, capacity: int = 8):
         self.entries: list[ColliderEntry] = []
         self.capacity = 0
+        self.version = 0  # counts uploads: colliders added, moved or changed
         self._allocate(capacity)
 
     def _allocate(self, capacity):
@@ -107,6 +108,7 @@ class ColliderTable:
         self._upload_poses(poses0, poses1)
 
     def upload_all(self):
+        self.version += 1
         n = len(self.entries)
         dtype = runtime.float_dtype()
         cap = self.capacity
@@ -153,6 +155,7 @@ class ColliderTable:
     def _upload_poses(self, poses0, poses1):
         """One packed host array and one small kernel: this runs every substep of a scene
         with moving colliders, where six separate transfers cost more than the step."""
+        self.version += 1
         n = len(self.entries)
         if n == 0:
             return

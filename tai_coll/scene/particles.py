@@ -33,6 +33,12 @@ class ParticleStore:
         self.stats = ti.ndarray(ti.i32, shape=len(STAT_NAMES))
         self.stats.fill(0)
         self.totals = dict.fromkeys(STAT_NAMES, 0)
+        # `version` counts the times the state may have changed outside the impulse solver's
+        # step kernel; the impulse solver keeps each particle's clearance (how far it can move
+        # before it could touch a collider) between launches and trusts it only while
+        # `clearance_key` (versions of store and collider table at its last launch) holds.
+        self.version = 0
+        self.clearance_key = None
         self._allocate(max(int(capacity), 1))
 
     def _allocate(self, capacity: int):
@@ -42,12 +48,15 @@ class ParticleStore:
         self.mass = ti.ndarray(float, shape=capacity)
         self.radius = ti.ndarray(float, shape=capacity)
         self.flags = ti.ndarray(ti.i32, shape=capacity)
+        self.clearance = ti.ndarray(float, shape=capacity)
         self.capacity = capacity
+        self.version += 1
         if old is not None:
             for name, values in old.items():
                 self._write_range(name, 0, values)
 
     def _write_range(self, name: str, start: int, values: np.ndarray):
+        self.version += 1
         array = getattr(self, name)
         full = array.to_numpy()
         full[start:start + len(values)] = values
@@ -73,8 +82,12 @@ class ParticleStore:
     def write(self, name: str, values: np.ndarray):
         self._write_range(name, 0, values)
 
-    def kernel_args(self):
-        """The arrays in the order `ParticleArrays` takes them."""
+    def kernel_args(self, moves: bool = True):
+        """The arrays in the order `ParticleArrays` takes them. A kernel given them may move
+        the particles (unless the caller says `moves=False`), so the impulse solver's stored
+        clearances stop counting."""
+        if moves:
+            self.version += 1
         return self.x, self.v, self.mass, self.radius, self.flags, self.stats
 
     def collect_stats(self) -> dict:

@@ -191,6 +191,46 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3
     return x, v
 
 
+@ti.func
+def flight_path_bound(v0: vec3, gravity: vec3, dt, k):
+    """Upper bound on the path length of k substeps of free flight from velocity v0: the
+    substep displacements are dt v_j with v_j = v0 + j dt g (j = 1..k), and
+    |v_j| <= |v0| + j dt |g| sums to k dt |v0| + dt^2 |g| k (k + 1) / 2."""
+    return k * dt * v0.norm() + 0.5 * dt * dt * gravity.norm() * k * (k + 1)
+
+
+@ti.func
+def free_flight(x0: vec3, v0: vec3, gravity: vec3, dt, k):
+    """k substeps of symplectic Euler without contacts in closed form:
+    v_k = v0 + k dt g, x_k = x0 + k dt v0 + dt^2 g k (k + 1) / 2."""
+    return x0 + (k * dt) * v0 + (0.5 * dt * dt * k * (k + 1)) * gravity, v0 + (k * dt) * gravity
+
+
+@ti.func
+def flight_stays_inside(x0: vec3, v0: vec3, gravity: vec3, dt, k, domain_lo: vec3, domain_hi: vec3) -> bool:
+    """Every substep end of a k-substep free flight lies in the domain box. Per axis the
+    positions x_j = x0 + j dt v0 + dt^2 g j (j + 1) / 2 are a parabola in j: its extremes over
+    j = 1..k are at the ends or at the integer next to the vertex."""
+    inside = True
+    vertex = -v0 / (gravity * dt) - 0.5  # inf/nan on axes without gravity: clamped below
+    for a in ti.static(range(3)):
+        for choice in ti.static(range(4)):
+            j = 1.0
+            if ti.static(choice == 1):
+                j = ti.cast(k, float)
+            elif ti.static(choice == 2):
+                j = ti.floor(vertex[a])
+            elif ti.static(choice == 3):
+                j = ti.floor(vertex[a]) + 1.0
+            if not (j >= 1.0):  # also catches nan
+                j = 1.0
+            j = ti.min(j, ti.cast(k, float))
+            xa = x0[a] + j * dt * v0[a] + 0.5 * dt * dt * j * (j + 1.0) * gravity[a]
+            if not (xa >= domain_lo[a] and xa <= domain_hi[a]):
+                inside = False
+    return inside
+
+
 @ti.kernel
 def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(), flags: scalars(ti.i32),
                     stats: scalars(ti.i32),
@@ -198,6 +238,7 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
                     angular_velocity: vectors(), ishape: vectors(8), fshape: vectors(8), fpool: scalars(),
                     ipool: scalars(ti.i32), groups: ti.template(),
+                    clearances: scalars(), reuse_clearance: ti.i32,
                     n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
                     scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
                     elastic_iterations: ti.i32, repulsion: last_resort6, repulsion_speed_limit: float,
@@ -205,9 +246,12 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
     # Particles are independent of each other here, so with colliders that hold still during
     # the call, one launch runs several substeps and keeps each particle in registers,
-    # including its clearance: while the distance to every collider exceeds the substep's
-    # displacement, nothing can be touched (phi is 1-Lipschitz) and the substep is plain
-    # integration.
+    # including its clearance: a lower bound on how far it can travel before it could touch
+    # a collider (phi is 1-Lipschitz). While the clearance exceeds the path of the remaining
+    # substeps, nothing can be touched and those substeps are plain integration, done in
+    # closed form at once (free_flight). The clearance is kept between launches
+    # (`clearances`) and reused when the host says nothing moved in between: neither the
+    # colliders nor the particles outside this kernel (reuse_clearance).
     # A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
     # still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the
     # same in every later substep of the launch, so the particle is done: an exact shortcut,
@@ -218,16 +262,30 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
             x0 = x[i]
             v0 = v[i]
             clearance = -1.0
+            if reuse_clearance:
+                clearance = clearances[i]
             status = P.ACTIVE
-            for _ in range(n_substeps):
-                # free flight, while the clearance lasts: plain integration
+            s = 0
+            while s < n_substeps:
+                k = n_substeps - s
+                path = flight_path_bound(v0, gravity, dt, k)
+                if clearance > path * (1.0 + 1e-5):
+                    xk, vk = free_flight(x0, v0, gravity, dt, k)
+                    inside = True
+                    if ti.static(use_domain):
+                        inside = flight_stays_inside(x0, v0, gravity, dt, k, domain_lo, domain_hi)
+                    if inside and state_status(xk, vk, False, domain_lo, domain_hi) == P.ACTIVE:
+                        x0 = xk
+                        v0 = vk
+                        clearance -= path * (1.0 + 1e-5)
+                        break
+                # one substep: free flight while the clearance lasts, else query and respond
                 x1, v1 = symplectic_euler(x0, v0, gravity, dt)
                 step = (x1 - x0).norm()
                 unchanged = False
                 if clearance > step:
                     clearance -= step
                 else:
-                    # query and respond
                     x1, v1, clearance = resolve_particle(
                         ParticleArrays(x, v, mass, radius, flags, stats),
                         ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
@@ -240,10 +298,12 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     break  # frozen at its last finite state
                 x0 = x1
                 v0 = v1
+                s += 1
                 if status != P.ACTIVE or unchanged:
                     break
             x[i] = x0
             v[i] = v0
+            clearances[i] = clearance
             if status != P.ACTIVE:
                 flag(ParticleArrays(x, v, mass, radius, flags, stats), i, status)
 
@@ -283,6 +343,7 @@ def impulse_resolve_candidates(x: vectors(), v: vectors(), mass: scalars(), radi
                                rotation0: matrices(), center1: vectors(), rotation1: matrices(),
                                velocity: vectors(), angular_velocity: vectors(), ishape: vectors(8),
                                fshape: vectors(8), fpool: scalars(), ipool: scalars(ti.i32), groups: ti.template(),
+                               clearances: scalars(), reuse_clearance: ti.i32,
                                candidate_x: vectors(), candidate_v: vectors(),
                                n_particles: ti.i32, n_colliders: ti.i32, dt: float,
                                scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
@@ -292,38 +353,51 @@ def impulse_resolve_candidates(x: vectors(), v: vectors(), mass: scalars(), radi
                                contact_only: ti.template(), store_state: ti.template()):
     """Resolve candidates that another phase (particle-particle contacts) produced: with the
     chosen scheme, or with contact passes only (e = 0) when contact_only; then either store
-    them as the new state, or write them back as candidates for the next phase."""
+    them as the new state, or write them back as candidates for the next phase. A particle
+    whose kept clearance (see impulse_substep) exceeds the way from x to its candidate
+    cannot touch a collider: it is left as it is, without a query."""
     for i in range(n_particles):
         resolve_candidate(ParticleArrays(x, v, mass, radius, flags, stats),
                           ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
                                          angular_velocity, ishape, fshape, fpool, ipool, groups),
-                          i, n_colliders, candidate_x, candidate_v, dt, scheme, wet_law, max_iterations,
-                          elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed,
-                          use_domain, domain_lo, domain_hi, contact_only, store_state)
+                          i, n_colliders, clearances, reuse_clearance, candidate_x, candidate_v, dt, scheme,
+                          wet_law, max_iterations, elastic_iterations, repulsion, repulsion_speed_limit,
+                          slop_fraction, rest_speed, use_domain, domain_lo, domain_hi, contact_only, store_state)
 
 
 @ti.func
-def resolve_candidate(p: ti.template(), c: ti.template(), i, n_colliders, candidate_x: ti.template(),
-                      candidate_v: ti.template(), dt, scheme: ti.template(), wet_law: ti.template(), max_iterations,
-                      elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed,
-                      use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, contact_only: ti.template(),
-                      store_state: ti.template()):
+def resolve_candidate(p: ti.template(), c: ti.template(), i, n_colliders, clearances: ti.template(), reuse_clearance,
+                      candidate_x: ti.template(), candidate_v: ti.template(), dt, scheme: ti.template(),
+                      wet_law: ti.template(), max_iterations, elastic_iterations, repulsion, repulsion_speed_limit,
+                      slop_fraction, rest_speed, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
+                      contact_only: ti.template(), store_state: ti.template()):
     if p.flags[i] == P.ACTIVE:
         x0 = p.x[i]
         v0 = p.v[i]
         x1 = candidate_x[i]
         v1 = candidate_v[i]
-        if ti.static(contact_only):
-            r = p.radius[i]
-            x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
-                                               slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
-            x1 = keep_out(c, n_colliders, x0, x1, r)
+        way = (x1 - x0).norm()
+        clearance = -1.0
+        if reuse_clearance:
+            clearance = clearances[i]
+        if clearance > way:
+            clearance -= way  # out of every collider's reach: nothing to resolve
         else:
-            x1, v1, clearance = resolve_particle(p, c, i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law,
-                                                 max_iterations, elastic_iterations, repulsion,
-                                                 repulsion_speed_limit, slop_fraction, rest_speed)
+            if ti.static(contact_only):
+                r = p.radius[i]
+                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
+                                                   slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
+                x_kept = keep_out(c, n_colliders, x0, x1, r)
+                if any(x_kept != x1):
+                    clearance = -1.0
+                x1 = x_kept
+            else:
+                x1, v1, clearance = resolve_particle(p, c, i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law,
+                                                     max_iterations, elastic_iterations, repulsion,
+                                                     repulsion_speed_limit, slop_fraction, rest_speed)
         if ti.static(store_state):
             store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
+            clearances[i] = clearance
         else:
             candidate_x[i] = x1
             candidate_v[i] = v1
@@ -402,14 +476,22 @@ class ImpulseSolver:
         the colliders: with the scheme, or contact passes only; store the result as the
         particles' new state, or write it back to the candidate arrays."""
         options, domain = self._options(scene, dt)
-        impulse_resolve_candidates(*scene._particles.kernel_args(), *scene._colliders.kernel_args(),
-                                   scene._colliders.groups, candidate_x, candidate_v, scene._particles.count,
-                                   len(scene._colliders), dt, *options, *domain, contact_only, store_state)
+        store, table = scene._particles, scene._colliders
+        reuse = store.clearance_key == (store.version, table.version)
+        impulse_resolve_candidates(*store.kernel_args(moves=store_state), *table.kernel_args(), table.groups,
+                                   store.clearance, int(reuse), candidate_x, candidate_v, store.count, len(table),
+                                   dt, *options, *domain, contact_only, store_state)
+        if store_state:
+            store.clearance_key = (store.version, table.version)
 
     def advance(self, scene, dt: float, substeps: int = 1):
         """Advance every active particle of `scene` by `substeps` substeps of dt against its
         colliders, which must keep their current poses for the whole call."""
         options, domain = self._options(scene, dt)
-        impulse_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(), scene._colliders.groups,
-                        scene._particles.count, len(scene._colliders), substeps, vec3(*scene.gravity), dt,
-                        *options, *domain)
+        store, table = scene._particles, scene._colliders
+        # before kernel_args(), which counts this launch as a change of the particles
+        reuse = store.clearance_key == (store.version, table.version)
+        impulse_substep(*store.kernel_args(), *table.kernel_args(), table.groups, store.clearance, int(reuse),
+                        store.count, len(table), substeps, vec3(*scene.gravity), dt, *options, *domain)
+        # the clearances now describe the particles as this launch left them
+        store.clearance_key = (store.version, table.version)

@@ -67,18 +67,12 @@ def pair_normal(xi: vec3, xj: vec3, i, j):
     return n, dist
 
 
-@ti.kernel
-def _count_contacts(x1: ti.types.ndarray(), radius: ti.types.ndarray(), n: ti.i32,
-                    neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
-                    # outputs
-                    contacts: ti.types.ndarray()):
-    for i in range(n):
-        count = 0
-        for k in range(neighbour_count[i]):
-            j = neighbours[i, k]
-            if (x1[i] - x1[j]).norm() < radius[i] + radius[j]:
-                count += 1
-        contacts[i] = count
+@ti.func
+def pair_share(contacts: ti.template(), i, j, relaxation):
+    """The pair's share of its full correction in a Jacobi pass: relaxation over the larger
+    contact count of the two (the same number on both sides), at most 1. The counts are
+    those of the previous pass (the positions move little between passes)."""
+    return ti.min(1.0, relaxation / ti.max(contacts[i], contacts[j], 1))
 
 
 @ti.kernel
@@ -87,22 +81,28 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
                    neighbour_count: ti.types.ndarray(), contacts: ti.types.ndarray(), restitution: float,
                    friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
                    # outputs
-                   dv: ti.types.ndarray()):
-    """dv_i = sum over overlapping neighbours j of particle i's share of the pair impulse."""
+                   dv: ti.types.ndarray(), contacts_now: ti.types.ndarray()):
+    """dv_i = sum over overlapping neighbours j of particle i's share of the pair impulse;
+    also counts those neighbours (the shares of the next pass)."""
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
         inv_mi = 1.0 / mass[i]
+        count = 0
+        xi = x1[i]
+        ri = radius[i]
         for k in range(neighbour_count[i]):
             j = neighbours[i, k]
-            nrm, dist = pair_normal(x1[i], x1[j], i, j)
-            if dist < radius[i] + radius[j]:
+            reach = ri + radius[j]
+            if (xi - x1[j]).norm_sqr() < reach * reach:  # touching: the rest only for contacts
+                nrm, dist = pair_normal(xi, x1[j], i, j)
+                count += 1
                 v_rel = v_test[i] - v_test[j]
                 v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
                 inv_mj = 1.0 / mass[j]
                 impulse = (v_new - v_rel) / (inv_mi + inv_mj)
-                share = ti.min(1.0, relaxation / ti.max(contacts[i], contacts[j]))
-                acc += share * inv_mi * impulse
+                acc += pair_share(contacts, i, j, relaxation) * inv_mi * impulse
         dv[i] = acc
+        contacts_now[i] = count
 
 
 @ti.kernel
@@ -125,19 +125,24 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
                      neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
                      contacts: ti.types.ndarray(), relaxation: float,
                      # outputs
-                     dx: ti.types.ndarray()):
+                     dx: ti.types.ndarray(), contacts_now: ti.types.ndarray()):
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
         inv_mi = 1.0 / mass[i]
+        count = 0
+        xi = x1[i]
+        ri = radius[i]
         for k in range(neighbour_count[i]):
             j = neighbours[i, k]
-            nrm, dist = pair_normal(x1[i], x1[j], i, j)
-            overlap = radius[i] + radius[j] - dist
-            if overlap > 0.0:
+            reach = ri + radius[j]
+            if (xi - x1[j]).norm_sqr() < reach * reach:
+                nrm, dist = pair_normal(xi, x1[j], i, j)
+                overlap = reach - dist
+                count += 1
                 inv_mj = 1.0 / mass[j]
-                share = ti.min(1.0, relaxation / ti.max(contacts[i], contacts[j]))
-                acc += share * overlap * inv_mi / (inv_mi + inv_mj) * nrm
+                acc += pair_share(contacts, i, j, relaxation) * overlap * inv_mi / (inv_mi + inv_mj) * nrm
         dx[i] = acc
+        contacts_now[i] = count
 
 
 @ti.kernel
@@ -218,7 +223,7 @@ class ParticleCollisions:
         self.material = material
         self.iterations = validate.integer("iterations", iterations, low=1)
         self.projection_iterations = validate.integer("projection_iterations", projection_iterations, low=0)
-        self.relaxation = validate.real("relaxation", relaxation, low=0.0, high=2.0, low_open=True)
+        self.relaxation = validate.real("relaxation", relaxation, low=0.0, high=8.0, low_open=True)
         self.margin = validate.real("margin", margin, low=0.0)
         self.grid = HashGrid()
         self.capacity = 0
@@ -271,12 +276,13 @@ class ParticleCollisions:
         # 2. neighbours of the candidates
         self.grid.build(self.x1, radius, flags, n, 2.0 * r_max + margin, margin)
         nb, nc = self.grid.neighbours, self.grid.neighbour_count
-        # 3. elastic pass on v(t)
+        # 3. elastic pass on v(t); the grid counted the contacts at the candidates
         self.v_start.copy_from(v)
-        _count_contacts(self.x1, radius, n, nb, nc, self.contacts)
-        _velocity_pass(self.x1, self.v_start, mass, radius, n, nb, nc, self.contacts, *law, self.relaxation,
-                       self.delta)
+        contacts, counted = self.grid.touching, self.contacts
+        _velocity_pass(self.x1, self.v_start, mass, radius, n, nb, nc, contacts, *law, self.relaxation,
+                       self.delta, counted)
         _apply_velocity(x, flags, n, dt, self.delta, 1, self.v_start, self.x1, self.v1)
+        contacts, counted = counted, contacts
         #    ... and the colliders' own scheme (its elastic pass included) on the candidates
         solver = scene.solver
         solver.resolve_candidates(scene, dt, self.x1, self.v1, store_state=False)
@@ -284,16 +290,16 @@ class ParticleCollisions:
         #    contact passes: support from a floor reaches the top of a stack within a substep
         contact_law = (0.0,) + law[1:]
         for _ in range(self.iterations):
-            _count_contacts(self.x1, radius, n, nb, nc, self.contacts)
-            _velocity_pass(self.x1, self.v1, mass, radius, n, nb, nc, self.contacts, *contact_law,
-                           self.relaxation, self.delta)
+            _velocity_pass(self.x1, self.v1, mass, radius, n, nb, nc, contacts, *contact_law,
+                           self.relaxation, self.delta, counted)
             _apply_velocity(x, flags, n, dt, self.delta, 0, self.v_start, self.x1, self.v1)
+            contacts, counted = counted, contacts
             solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True, store_state=False)
         # 5. projection passes on positions
         for _ in range(self.projection_iterations):
-            _count_contacts(self.x1, radius, n, nb, nc, self.contacts)
-            _projection_pass(self.x1, mass, radius, n, nb, nc, self.contacts, self.relaxation, self.delta)
+            _projection_pass(self.x1, mass, radius, n, nb, nc, contacts, self.relaxation, self.delta, counted)
             _apply_position(flags, n, self.delta, dt, self.x1, self.v1)
+            contacts, counted = counted, contacts
         # 6. colliders last, and the new state
         solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True)
         self.neighbour_overflow += self.grid.take_overflow()
