@@ -223,7 +223,7 @@ class ParticleCollisions:
         self.material = material
         self.iterations = validate.integer("iterations", iterations, low=1)
         self.projection_iterations = validate.integer("projection_iterations", projection_iterations, low=0)
-        self.relaxation = validate.real("relaxation", relaxation, low=0.0, high=8.0, low_open=True)
+        self.relaxation = validate.real("relaxation", relaxation, low=0.0, high=2.0, low_open=True)
         self.margin = validate.real("margin", margin, low=0.0)
         self.grid = HashGrid()
         self.capacity = 0
