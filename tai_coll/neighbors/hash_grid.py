@@ -6,7 +6,8 @@ so negative coordinates and particles far outside any initial bounds work the sa
 Cells map into a table of buckets (a grid that wraps around, see `bucket_of`); a bucket holds any number of particles (no per-cell
 cap): counts, an exclusive prefix sum (parallel, by blocks), then a scatter place every particle in one
 flat array, sorted within each bucket by index so the result does not depend on thread timing.
-A query visits the 27 cells around a particle and keeps the particles whose own cell is the
+A query visits the 27 cells around a particle (nine rows of three, each row one range of
+entries where it does not wrap around the table) and keeps the particles whose own cell is the
 visited one (two cells can share a bucket) and whose distance is within reach.
 """
 
@@ -126,6 +127,27 @@ def _gather(x: ti.types.ndarray(), radius: ti.types.ndarray(), cells: ti.types.n
         sorted_cells[k] = cells[i]
 
 
+@ti.func
+def _scan_row(begin, end, slot, i, xi: vec3, ri, row: ivec3, margin, found, touch, entries: ti.template(),
+              sorted_x: ti.template(), sorted_radius: ti.template(), sorted_cells: ti.template(),
+              neighbours: ti.template()):
+    """Entries begin..end that lie in the row of cells row .. row + (2, 0, 0) (other cells
+    may share the buckets) and within reach of particle i (at `slot`): append them to i's
+    list; count those touching it."""
+    for k in range(begin, end):
+        cell = sorted_cells[k]
+        if k != slot and cell.y == row.y and cell.z == row.z and cell.x >= row.x and cell.x <= row.x + 2:
+            d2 = (xi - sorted_x[k]).norm_sqr()
+            contact = ri + sorted_radius[k]
+            if d2 < (contact + margin) * (contact + margin):
+                if found < NEIGHBOUR_CAPACITY:
+                    neighbours[i, found] = entries[k]
+                found += 1
+                if d2 < contact * contact:
+                    touch += 1
+    return found, touch
+
+
 @ti.kernel
 def _neighbours(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
                 n_buckets: ti.i32, bits: ivec3, margin: float, starts: ti.types.ndarray(),
@@ -143,19 +165,20 @@ def _neighbours(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.typ
         xi = sorted_x[slot]
         ri = sorted_radius[slot]
         home = sorted_cells[slot]
-        for dx, dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2), (-1, 2))):
-            cell = home + ivec3(dx, dy, dz)
-            h = bucket_of(cell, bits)
-            for k in range(starts[h], starts[h + 1]):
-                if k != slot and all(sorted_cells[k] == cell):
-                    dist = (xi - sorted_x[k]).norm()
-                    contact = ri + sorted_radius[k]
-                    if dist < contact + margin:
-                        if found < NEIGHBOUR_CAPACITY:
-                            neighbours[i, found] = entries[k]
-                        found += 1
-                        if dist < contact:
-                            touch += 1
+        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
+            # the row of three cells home.x - 1 .. home.x + 1: three buckets in a row, so one
+            # range of entries, unless the row wraps around the table's edge
+            row = home + ivec3(-1, dy, dz)
+            first = bucket_of(row, bits)
+            last = bucket_of(row + ivec3(2, 0, 0), bits)
+            if last == first + 2:
+                found, touch = _scan_row(starts[first], starts[last + 1], slot, i, xi, ri, row, margin, found,
+                                         touch, entries, sorted_x, sorted_radius, sorted_cells, neighbours)
+            else:
+                for dx in ti.static(range(3)):
+                    h = bucket_of(row + ivec3(dx, 0, 0), bits)
+                    found, touch = _scan_row(starts[h], starts[h + 1], slot, i, xi, ri, row, margin, found, touch,
+                                             entries, sorted_x, sorted_radius, sorted_cells, neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY

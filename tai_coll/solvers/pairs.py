@@ -81,13 +81,16 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
                    neighbour_count: ti.types.ndarray(), contacts: ti.types.ndarray(), restitution: float,
                    friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
                    # outputs
-                   dv: ti.types.ndarray(), contacts_now: ti.types.ndarray()):
+                   dv: ti.types.ndarray(), contacts_now: ti.types.ndarray(), changed: ti.types.ndarray()):
     """dv_i = sum over overlapping neighbours j of particle i's share of the pair impulse;
-    also counts those neighbours (the shares of the next pass)."""
+    also counts those neighbours (the shares of the next pass), and in changed[0] the
+    particles with an approaching contact (0: the pass did nothing)."""
+    changed[0] = 0
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
         inv_mi = 1.0 / mass[i]
         count = 0
+        approaching = 0
         xi = x1[i]
         ri = radius[i]
         for k in range(neighbour_count[i]):
@@ -98,11 +101,15 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
                 count += 1
                 v_rel = v_test[i] - v_test[j]
                 v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
-                inv_mj = 1.0 / mass[j]
-                impulse = (v_new - v_rel) / (inv_mi + inv_mj)
-                acc += pair_share(contacts, i, j, relaxation) * inv_mi * impulse
+                if dvn > 0.0:
+                    approaching += 1
+                    inv_mj = 1.0 / mass[j]
+                    impulse = (v_new - v_rel) / (inv_mi + inv_mj)
+                    acc += pair_share(contacts, i, j, relaxation) * inv_mi * impulse
         dv[i] = acc
         contacts_now[i] = count
+        if approaching > 0:
+            ti.atomic_add(changed[0], 1)
 
 
 @ti.kernel
@@ -125,7 +132,11 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
                      neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
                      contacts: ti.types.ndarray(), relaxation: float,
                      # outputs
-                     dx: ti.types.ndarray(), contacts_now: ti.types.ndarray()):
+                     dx: ti.types.ndarray(), contacts_now: ti.types.ndarray(), changed: ti.types.ndarray()):
+    """dx_i = sum over overlapping neighbours j of particle i's share of moving the pair
+    apart, split by inverse mass; counts as in _velocity_pass; changed[0]: particles with an
+    overlap (0: nothing left to project)."""
+    changed[0] = 0
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
         inv_mi = 1.0 / mass[i]
@@ -143,6 +154,8 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
                 acc += pair_share(contacts, i, j, relaxation) * overlap * inv_mi / (inv_mi + inv_mj) * nrm
         dx[i] = acc
         contacts_now[i] = count
+        if count > 0:
+            ti.atomic_add(changed[0], 1)
 
 
 @ti.kernel
@@ -239,6 +252,11 @@ class ParticleCollisions:
         self.v_start = ti.Vector.ndarray(3, float, shape=capacity)
         self.delta = ti.Vector.ndarray(3, float, shape=capacity)
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
+        self.changed = ti.ndarray(ti.i32, shape=1)
+
+    def _changed(self) -> bool:
+        """Whether the last pass had anything to do (a read from the device)."""
+        return bool(self.changed.to_numpy()[0])
 
     def substep(self, scene, dt: float):
         """One substep of every particle: pairs first, then the scene's solver against colliders.
@@ -280,24 +298,31 @@ class ParticleCollisions:
         self.v_start.copy_from(v)
         contacts, counted = self.grid.touching, self.contacts
         _velocity_pass(self.x1, self.v_start, mass, radius, n, nb, nc, contacts, *law, self.relaxation,
-                       self.delta, counted)
+                       self.delta, counted, self.changed)
         _apply_velocity(x, flags, n, dt, self.delta, 1, self.v_start, self.x1, self.v1)
         contacts, counted = counted, contacts
         #    ... and the colliders' own scheme (its elastic pass included) on the candidates
         solver = scene.solver
         solver.resolve_candidates(scene, dt, self.x1, self.v1, store_state=False)
         # 4. contact passes on the candidate velocities, e = 0, alternating with the colliders'
-        #    contact passes: support from a floor reaches the top of a stack within a substep
+        #    contact passes: support from a floor reaches the top of a stack within a substep.
+        #    A pass that finds no approaching pair ends the loop (the next would be the same);
+        #    likewise a projection pass that finds no overlap.
         contact_law = (0.0,) + law[1:]
         for _ in range(self.iterations):
             _velocity_pass(self.x1, self.v1, mass, radius, n, nb, nc, contacts, *contact_law,
-                           self.relaxation, self.delta, counted)
+                           self.relaxation, self.delta, counted, self.changed)
+            if not self._changed():
+                break
             _apply_velocity(x, flags, n, dt, self.delta, 0, self.v_start, self.x1, self.v1)
             contacts, counted = counted, contacts
             solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True, store_state=False)
         # 5. projection passes on positions
         for _ in range(self.projection_iterations):
-            _projection_pass(self.x1, mass, radius, n, nb, nc, contacts, self.relaxation, self.delta, counted)
+            _projection_pass(self.x1, mass, radius, n, nb, nc, contacts, self.relaxation, self.delta, counted,
+                             self.changed)
+            if not self._changed():
+                break
             _apply_position(flags, n, self.delta, dt, self.x1, self.v1)
             contacts, counted = counted, contacts
         # 6. colliders last, and the new state
