@@ -231,6 +231,27 @@ def flight_stays_inside(x0: vec3, v0: vec3, gravity: vec3, dt, k, domain_lo: vec
     return inside
 
 
+@ti.func
+def try_free_flight(x0: vec3, v0: vec3, clearance, gravity: vec3, dt, k, use_domain: ti.template(), domain_lo: vec3,
+                    domain_hi: vec3):
+    """k substeps at once when the clearance covers their whole path (and, with a domain,
+    every substep's end stays inside it). Returns (done, x_k, v_k, clearance left)."""
+    done = False
+    xk, vk = x0, v0
+    left = clearance
+    if clearance > 0.0:
+        path = flight_path_bound(v0, gravity, dt, k) * (1.0 + 1e-5)
+        if clearance > path:
+            xk, vk = free_flight(x0, v0, gravity, dt, k)
+            inside = True
+            if ti.static(use_domain):
+                inside = flight_stays_inside(x0, v0, gravity, dt, k, domain_lo, domain_hi)
+            if inside and state_status(xk, vk, False, domain_lo, domain_hi) == P.ACTIVE:
+                done = True
+                left = clearance - path
+    return done, xk, vk, left
+
+
 @ti.kernel
 def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(), flags: scalars(ti.i32),
                     stats: scalars(ti.i32),
@@ -264,48 +285,50 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
             clearance = -1.0
             if reuse_clearance:
                 clearance = clearances[i]
-            status = P.ACTIVE
-            s = 0
-            while s < n_substeps:
-                k = n_substeps - s
-                path = flight_path_bound(v0, gravity, dt, k)
-                if clearance > path * (1.0 + 1e-5):
-                    xk, vk = free_flight(x0, v0, gravity, dt, k)
-                    inside = True
-                    if ti.static(use_domain):
-                        inside = flight_stays_inside(x0, v0, gravity, dt, k, domain_lo, domain_hi)
-                    if inside and state_status(xk, vk, False, domain_lo, domain_hi) == P.ACTIVE:
-                        x0 = xk
-                        v0 = vk
-                        clearance -= path * (1.0 + 1e-5)
+            # the common case first, kept small: the whole launch in free flight
+            flown, xk, vk, left = try_free_flight(x0, v0, clearance, gravity, dt, n_substeps, use_domain,
+                                                  domain_lo, domain_hi)
+            if flown:
+                x[i] = xk
+                v[i] = vk
+                clearances[i] = left
+            else:
+                status = P.ACTIVE
+                s = 0
+                while s < n_substeps:
+                    if s > 0:  # the clearance may have been renewed by a query
+                        flown, xk, vk, left = try_free_flight(x0, v0, clearance, gravity, dt, n_substeps - s,
+                                                              use_domain, domain_lo, domain_hi)
+                        if flown:
+                            x0, v0, clearance = xk, vk, left
+                            break
+                    # one substep: free flight while the clearance lasts, else query and respond
+                    x1, v1 = symplectic_euler(x0, v0, gravity, dt)
+                    step = (x1 - x0).norm()
+                    unchanged = False
+                    if clearance > step:
+                        clearance -= step
+                    else:
+                        x1, v1, clearance = resolve_particle(
+                            ParticleArrays(x, v, mass, radius, flags, stats),
+                            ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
+                                           angular_velocity, ishape, fshape, fpool, ipool, groups),
+                            i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations,
+                            elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed)
+                        unchanged = all(x1 == x0) and all(v1 == v0)
+                    status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
+                    if status == P.NON_FINITE:
+                        break  # frozen at its last finite state
+                    x0 = x1
+                    v0 = v1
+                    s += 1
+                    if status != P.ACTIVE or unchanged:
                         break
-                # one substep: free flight while the clearance lasts, else query and respond
-                x1, v1 = symplectic_euler(x0, v0, gravity, dt)
-                step = (x1 - x0).norm()
-                unchanged = False
-                if clearance > step:
-                    clearance -= step
-                else:
-                    x1, v1, clearance = resolve_particle(
-                        ParticleArrays(x, v, mass, radius, flags, stats),
-                        ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
-                                       angular_velocity, ishape, fshape, fpool, ipool, groups),
-                        i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations, elastic_iterations,
-                        repulsion, repulsion_speed_limit, slop_fraction, rest_speed)
-                    unchanged = all(x1 == x0) and all(v1 == v0)
-                status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
-                if status == P.NON_FINITE:
-                    break  # frozen at its last finite state
-                x0 = x1
-                v0 = v1
-                s += 1
-                if status != P.ACTIVE or unchanged:
-                    break
-            x[i] = x0
-            v[i] = v0
-            clearances[i] = clearance
-            if status != P.ACTIVE:
-                flag(ParticleArrays(x, v, mass, radius, flags, stats), i, status)
+                x[i] = x0
+                v[i] = v0
+                clearances[i] = clearance
+                if status != P.ACTIVE:
+                    flag(ParticleArrays(x, v, mass, radius, flags, stats), i, status)
 
 
 @ti.func
