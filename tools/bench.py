@@ -466,9 +466,10 @@ def print_table(rows, compile_info, speedups, machine):
             print(f"{r['case']} vs taichi after {a['after_frames']} frames: max {a['max_m']:.2e} m, "
                   f"p99 {a['p99_m']:.2e} m, within 1e-5 m: {100 * a['fraction_within_1e-5_m']:.2f}%")
     for layout, sp in speedups.items():
+        # issue 2's target (20x) is set on the falling scene; the resting layout is an extra row
+        target = f"target 20x: {'met' if sp['ratio'] >= 20 else 'NOT met'}" if layout == "falling" else "no target"
         print(f"speed-up ({layout}), taichi / numpy over the same first {sp['frames']} frames: "
-              f"{sp['taichi_rate'] / 1e6:.2f} / {sp['numpy_rate'] / 1e6:.2f} M/s = {sp['ratio']:.2f}x "
-              f"(target 20x: {'met' if sp['ratio'] >= 20 else 'NOT met'})")
+              f"{sp['taichi_rate'] / 1e6:.2f} / {sp['numpy_rate'] / 1e6:.2f} M/s = {sp['ratio']:.2f}x ({target})")
 
 
 def print_pile_table(rows):
@@ -513,7 +514,8 @@ def main(argv=None):
     parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
     parser.add_argument("--precision", default="f32", choices=("f32", "f64"),
                         help="precision of both sides (Taichi's default is f32)")
-    parser.add_argument("--json", default=str(ROOT / "bench_results" / "bench.json"))
+    parser.add_argument("--json", default=None,
+                        help="report path (default bench_results/bench.json, bench_pile.json with --pile-only)")
     parser.add_argument("--quick", action="store_true", help="100,000 particles, fewer frames")
     parser.add_argument("--profile", action="store_true", help="extra rows to see where the time goes")
     parser.add_argument("--no-compile-probe", action="store_true", help="skip the cold/warm child processes")
@@ -528,6 +530,8 @@ def main(argv=None):
                         help="frames timed from the drop, pile of 1,000,000 (12: the fall and first impacts)")
     args = parser.parse_args(argv)
     args.pile = args.pile or args.pile_only
+    if args.json is None:
+        args.json = str(ROOT / "bench_results" / ("bench_pile.json" if args.pile_only else "bench.json"))
 
     if args.compile_probe:
         print(json.dumps(compile_probe(args)))
