@@ -3,9 +3,10 @@
 Cells are cubes of side `cell_size` (at least the largest particle diameter, so touching
 particles are never more than one cell apart); a particle's cell is floor(x / cell_size),
 so negative coordinates and particles far outside any initial bounds work the same way.
-Cells map into a table of buckets (a grid that wraps around, see `bucket_of`); a bucket holds any number of particles (no per-cell
-cap): counts, an exclusive prefix sum (parallel, by blocks), then a scatter place every particle in one
-flat array, sorted within each bucket by index so the result does not depend on thread timing.
+Cells map into a table of buckets (a grid that wraps around, see `bucket_of`); a bucket holds
+any number of particles (no per-cell cap): counts, an exclusive prefix sum (parallel, by
+blocks), then a scatter place every particle in one flat array, sorted within each bucket by
+index so the result does not depend on thread timing.
 A query visits the 27 cells around a particle (nine rows of three, each row one range of
 entries where it does not wrap around the table) and keeps the particles whose own cell is the
 visited one (two cells can share a bucket) and whose distance is within reach.
@@ -149,10 +150,9 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, row: ivec3, margin, found, touc
 
 
 @ti.kernel
-def _neighbours(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
-                n_buckets: ti.i32, bits: ivec3, margin: float, starts: ti.types.ndarray(),
-                entries: ti.types.ndarray(),
-                sorted_x: ti.types.ndarray(), sorted_radius: ti.types.ndarray(), sorted_cells: ti.types.ndarray(),
+def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, bits: ivec3, margin: float,
+                starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_x: ti.types.ndarray(),
+                sorted_radius: ti.types.ndarray(), sorted_cells: ti.types.ndarray(),
                 # outputs
                 neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
                 touching: ti.types.ndarray(), overflow: ti.types.ndarray()):
@@ -242,7 +242,7 @@ class HashGrid:
         _sort_buckets(self.starts, self.n_buckets, self.entries)
         _gather(x, radius, self.cells, self.entries, self.starts, self.n_buckets, self.sorted_x,
                 self.sorted_radius, self.sorted_cells)
-        _neighbours(x, radius, flags, n, self.n_buckets, self.bits, margin, self.starts, self.entries, self.sorted_x,
+        _neighbours(flags, n, self.n_buckets, self.bits, margin, self.starts, self.entries, self.sorted_x,
                     self.sorted_radius, self.sorted_cells, self.neighbours, self.neighbour_count, self.touching,
                     self.overflow)
 

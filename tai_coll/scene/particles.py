@@ -76,6 +76,15 @@ class ParticleStore:
             self.max_radius = max(self.max_radius, float(np.max(radius)))
         return slice(start, start + n)
 
+    def clearances_hold(self, table) -> bool:
+        """Whether the kept clearances still describe the particles against the collider
+        `table`: nothing moved the particles or changed the table since they were written."""
+        return self.clearance_key == (self.version, table.version)
+
+    def clearances_written(self, table):
+        """A kernel has just written the clearances for the particles as it left them."""
+        self.clearance_key = (self.version, table.version)
+
     def read(self, name: str) -> np.ndarray:
         return getattr(self, name).to_numpy()[: self.count].copy()
 

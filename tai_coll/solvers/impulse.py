@@ -29,7 +29,8 @@ from ..response.repulsion import RepulsionField, pack
 from ..scene import particles as P
 from ..geometry import kinds
 from .detection import detect, earliest_approach, is_still, keep_out, start_penetration, surface_velocity
-from .integrate import flag, state_status, store, symplectic_euler
+from .integrate import (flag, flight_path_bound, flight_stays_inside, free_flight, state_status, store,
+                        symplectic_euler)
 from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
 
 vec3 = ti.math.vec3
@@ -189,46 +190,6 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3
         x = x + remaining * last_vs
         ti.atomic_add(p.stats[P.STAT_FAILSAFE], 1)
     return x, v
-
-
-@ti.func
-def flight_path_bound(v0: vec3, gravity: vec3, dt, k):
-    """Upper bound on the path length of k substeps of free flight from velocity v0: the
-    substep displacements are dt v_j with v_j = v0 + j dt g (j = 1..k), and
-    |v_j| <= |v0| + j dt |g| sums to k dt |v0| + dt^2 |g| k (k + 1) / 2."""
-    return k * dt * v0.norm() + 0.5 * dt * dt * gravity.norm() * k * (k + 1)
-
-
-@ti.func
-def free_flight(x0: vec3, v0: vec3, gravity: vec3, dt, k):
-    """k substeps of symplectic Euler without contacts in closed form:
-    v_k = v0 + k dt g, x_k = x0 + k dt v0 + dt^2 g k (k + 1) / 2."""
-    return x0 + (k * dt) * v0 + (0.5 * dt * dt * k * (k + 1)) * gravity, v0 + (k * dt) * gravity
-
-
-@ti.func
-def flight_stays_inside(x0: vec3, v0: vec3, gravity: vec3, dt, k, domain_lo: vec3, domain_hi: vec3) -> bool:
-    """Every substep end of a k-substep free flight lies in the domain box. Per axis the
-    positions x_j = x0 + j dt v0 + dt^2 g j (j + 1) / 2 are a parabola in j: its extremes over
-    j = 1..k are at the ends or at the integer next to the vertex."""
-    inside = True
-    vertex = -v0 / (gravity * dt) - 0.5  # inf/nan on axes without gravity: clamped below
-    for a in ti.static(range(3)):
-        for choice in ti.static(range(4)):
-            j = 1.0
-            if ti.static(choice == 1):
-                j = ti.cast(k, float)
-            elif ti.static(choice == 2):
-                j = ti.floor(vertex[a])
-            elif ti.static(choice == 3):
-                j = ti.floor(vertex[a]) + 1.0
-            if not (j >= 1.0):  # also catches nan
-                j = 1.0
-            j = ti.min(j, ti.cast(k, float))
-            xa = x0[a] + j * dt * v0[a] + 0.5 * dt * dt * j * (j + 1.0) * gravity[a]
-            if not (xa >= domain_lo[a] and xa <= domain_hi[a]):
-                inside = False
-    return inside
 
 
 @ti.func
@@ -500,21 +461,19 @@ class ImpulseSolver:
         particles' new state, or write it back to the candidate arrays."""
         options, domain = self._options(scene, dt)
         store, table = scene._particles, scene._colliders
-        reuse = store.clearance_key == (store.version, table.version)
+        reuse = store.clearances_hold(table)
         impulse_resolve_candidates(*store.kernel_args(moves=store_state), *table.kernel_args(), table.groups,
                                    store.clearance, int(reuse), candidate_x, candidate_v, store.count, len(table),
                                    dt, *options, *domain, contact_only, store_state)
         if store_state:
-            store.clearance_key = (store.version, table.version)
+            store.clearances_written(table)
 
     def advance(self, scene, dt: float, substeps: int = 1):
         """Advance every active particle of `scene` by `substeps` substeps of dt against its
         colliders, which must keep their current poses for the whole call."""
         options, domain = self._options(scene, dt)
         store, table = scene._particles, scene._colliders
-        # before kernel_args(), which counts this launch as a change of the particles
-        reuse = store.clearance_key == (store.version, table.version)
+        reuse = store.clearances_hold(table)  # before kernel_args(), which counts this launch as a move
         impulse_substep(*store.kernel_args(), *table.kernel_args(), table.groups, store.clearance, int(reuse),
                         store.count, len(table), substeps, vec3(*scene.gravity), dt, *options, *domain)
-        # the clearances now describe the particles as this launch left them
-        store.clearance_key = (store.version, table.version)
+        store.clearances_written(table)
