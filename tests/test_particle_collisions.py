@@ -165,6 +165,57 @@ def test_dem_pair_undamped_is_elastic_and_conserves_momentum():
     assert scene.particle_overlap()["pairs"] == 0
 
 
+def test_dem_forces_on_a_crowded_particle_match_the_spring_law():
+    # A big particle touched by 40 small ones (more than the kernel's batch of touching
+    # neighbours) and a few small ones touching each other, all at rest, no gravity: after one
+    # substep every velocity is dt/m times the sum of k overlap n over its contacts (the
+    # damper and friction see zero relative velocity), with k = stiffness as given.
+    rng = np.random.default_rng(5)
+    k, dt = 3e3, 1e-5
+    directions = rng.normal(size=(40, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    small = directions * rng.uniform(0.105, 0.118, (40, 1))  # overlapping the big one (r 0.1 + 0.02)
+    x = np.vstack([[0.0, 0.0, 0.0], small]) + [3.0, -2.0, 1.0]
+    radius = np.concatenate([[0.1], np.full(40, 0.02)])
+    mass = np.concatenate([[5.0], rng.uniform(0.5, 2.0, 40)])
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1,
+                     solver=tc.PenaltySolver(stiffness=k, damping=0.0))
+    scene.enable_particle_collisions(material=tc.Material(friction=0.5))
+    scene.add_particles(positions=x, radius=radius, mass=mass)
+    scene.step(1)
+    d = x[:, None, :] - x[None, :, :]
+    dist = np.linalg.norm(d, axis=2)
+    overlap = radius[:, None] + radius[None, :] - dist
+    np.fill_diagonal(overlap, 0.0)
+    touching = overlap > 0
+    assert touching[0].sum() == 40 and touching[1:, 1:].any()
+    with np.errstate(invalid="ignore", divide="ignore"):
+        force = np.where(touching[:, :, None], k * overlap[:, :, None] * d / dist[:, :, None], 0.0).sum(axis=1)
+    expected = dt * force / mass[:, None]
+    assert np.allclose(scene.velocities(), expected, rtol=1e-4, atol=1e-9 * np.abs(expected).max())
+    assert np.allclose((mass[:, None] * scene.velocities()).sum(axis=0), 0.0, atol=1e-12)
+
+
+def test_particle_overlap_matches_brute_force():
+    # The statistics come straight from the sorted grid: every overlapping pair, relative to
+    # the smaller radius, counted once; mixed radii and negative coordinates.
+    rng = np.random.default_rng(8)
+    n = 400
+    x = rng.uniform(-0.25, 0.25, (n, 3)) - [4.0, 0.5, 7.0]
+    radius = rng.uniform(0.01, 0.04, n)
+    scene = tc.Scene()
+    scene.enable_particle_collisions()
+    scene.add_particles(positions=x, radius=radius)
+    stats = scene.particle_overlap()
+    dist = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    i, j = np.triu_indices(n, 1)
+    rel = (radius[i] + radius[j] - dist[i, j]) / np.minimum(radius[i], radius[j])
+    rel = rel[rel > 0]
+    assert stats["pairs"] == len(rel) > 50
+    assert stats["max"] == pytest.approx(rel.max(), rel=1e-5)
+    assert stats["mean"] == pytest.approx(rel.mean(), rel=1e-5)
+
+
 def push_only_restitution(zeta: float) -> float:
     """Rebound of the damped oscillator x'' = -w^2 x - 2 zeta w x' (x: overlap) that can only
     push: x(t) = (v0/wd) exp(-zeta w t) sin(wd t) until the force w x + 2 zeta x' reaches zero

@@ -474,24 +474,26 @@ def print_table(rows, compile_info, speedups, machine):
 
 def print_pile_table(rows):
     print()
-    head = f"{'pile (particle collisions)':<26} {'particles':>10} {'frames':>6} {'sim s':>5} {'M p-steps/s':>11} " \
-           f"{'median fr.':>10} {'last 1/4':>8} {'grid ms':>7} {'B/part.':>7} {'overlap mean/max':>17}"
+    head = f"{'pile (particle collisions)':<26} {'particles':>10} {'dt ms':>5} {'sim s':>5} {'M p-steps/s':>11} " \
+           f"{'median fr.':>10} {'last 1/4':>8} {'sim s/s':>7} {'grid ms':>7} {'B/part.':>7} {'overlap mean/max':>17}"
     print(head)
     print("-" * len(head))
     for r in rows:
         o = r["overlap_end"]
-        print(f"{'taichi impulse, ' + r['precision']:<26} {r['particles']:>10,} {r['frames']:>6} "
+        print(f"{'taichi ' + r['variant'] + ', ' + r['precision']:<26} {r['particles']:>10,} {r['dt'] * 1e3:>5.2f} "
               f"{r['simulated_s']:>5.2f} {r['particle_steps_per_s'] / 1e6:>11.2f} "
               f"{r['median_frame_particle_steps_per_s'] / 1e6:>10.2f} "
-              f"{r['last_quarter_particle_steps_per_s'] / 1e6:>8.2f} {r['grid_build_s'] * 1e3:>7.1f} "
-              f"{r['state_bytes_per_particle']:>7.0f} {100 * o['mean']:>7.1f}% / {100 * o['max']:>5.1f}%")
+              f"{r['last_quarter_particle_steps_per_s'] / 1e6:>8.2f} {r['simulated_s_per_wall_s']:>7.4f} "
+              f"{r['grid_build_s'] * 1e3:>7.1f} {r['state_bytes_per_particle']:>7.0f} "
+              f"{100 * o['mean']:>7.1f}% / {100 * o['max']:>5.1f}%")
     print("(M p-steps/s: over all timed frames; median fr.: of the median frame; last 1/4: of the median "
-          "frame of the last quarter, the densest state reached)")
+          "frame of the last quarter, the densest state reached; sim s/s: simulated seconds per second; "
+          "grid: sort + neighbour lists (impulse), sort alone (dem))")
     for r in rows:
         if r["particles"] == 100_000:
             rate = r["particle_steps_per_s"]
-            print(f"pile of 100,000 over {r['simulated_s']:.2f} s from the drop: {rate / 1e6:.2f} M particle-steps/s "
-                  f"(target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
+            print(f"pile of 100,000, {r['variant']}, over {r['simulated_s']:.2f} s from the drop: "
+                  f"{rate / 1e6:.2f} M particle-steps/s (target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
 
 
 def write_json(path, report) -> Path:
@@ -524,12 +526,19 @@ def main(argv=None):
                         help="also particle-particle collisions: piles of 100,000 and 1,000,000 particles "
                              "(100,000 only with --quick) settling in a box (tools/bench_pile.py)")
     parser.add_argument("--pile-only", action="store_true", help="only the pile rows")
-    parser.add_argument("--pile-frames", type=int, default=100,
-                        help="frames timed from the drop, pile of 100,000 (100: 0.5 s, fall to dense pile)")
-    parser.add_argument("--pile-frames-1m", type=int, default=12,
-                        help="frames timed from the drop, pile of 1,000,000 (12: the fall and first impacts)")
+    parser.add_argument("--pile-seconds", type=float, default=0.5,
+                        help="simulated seconds timed from the drop, pile of 100,000 (0.5: fall to dense pile)")
+    parser.add_argument("--pile-seconds-1m", type=float, default=0.06,
+                        help="simulated seconds timed from the drop, pile of 1,000,000 (0.06: the fall and first "
+                             "impacts)")
+    parser.add_argument("--pile-variants", default="impulse,dem",
+                        help="comma-separated pile variants: impulse (default solver), dem (penalty pairs)")
     args = parser.parse_args(argv)
     args.pile = args.pile or args.pile_only
+    args.pile_variants = [v.strip() for v in args.pile_variants.split(",") if v.strip()]
+    unknown = sorted(set(args.pile_variants) - {"impulse", "dem"})
+    if unknown or not args.pile_variants:
+        parser.error(f"--pile-variants must list impulse and/or dem; got {unknown or 'nothing'}")
     if args.json is None:
         args.json = str(ROOT / "bench_results" / ("bench_pile.json" if args.pile_only else "bench.json"))
 
@@ -540,7 +549,7 @@ def main(argv=None):
         args.particles = min(args.particles, 100_000)
         args.frames = min(args.frames, 5)
         args.numpy_frames = min(args.numpy_frames, 2)
-        args.pile_frames = min(args.pile_frames, 20)
+        args.pile_seconds = min(args.pile_seconds, 0.1)
     if args.numpy_frames > args.frames:
         args.frames = args.numpy_frames
 
@@ -566,10 +575,12 @@ def main(argv=None):
         from bench_pile import pile_case
 
         for n in ((100_000,) if args.quick else (100_000, 1_000_000)):
-            row = pile_case(tc, n, frames=args.pile_frames if n <= 100_000 else args.pile_frames_1m)
-            row.update(precision=args.precision, threads=args.threads)
-            pile_rows.append(row)
-            print(f"  done: pile of {n:,} ({row['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s)", flush=True)
+            for variant in args.pile_variants:
+                row = pile_case(tc, n, args.pile_seconds if n <= 100_000 else args.pile_seconds_1m, variant)
+                row.update(precision=args.precision, threads=args.threads)
+                pile_rows.append(row)
+                print(f"  done: pile of {n:,}, {variant} ({row['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s)",
+                      flush=True)
 
     print_table(rows, compile_info, setup["speedups"], machine)
     if pile_rows:

@@ -8,8 +8,8 @@ any number of particles (no per-cell cap): counts, an exclusive prefix sum (para
 blocks), then a scatter place every particle in one flat array, sorted within each bucket by
 index so the result does not depend on thread timing.
 A query visits the 27 cells around a particle (nine rows of three, each row one range of
-entries where it does not wrap around the table) and keeps the particles whose own cell is the
-visited one (two cells can share a bucket) and whose distance is within reach.
+entries where it does not wrap around the table, see `row_part`) and keeps the particles
+within reach (two cells can share a bucket, but never two cells near each other).
 """
 
 import numpy as np
@@ -18,6 +18,7 @@ import taichi as ti
 from ..scene import particles as P
 
 vec3 = ti.math.vec3
+vec4 = ti.math.vec4
 ivec3 = ti.math.ivec3
 
 NEIGHBOUR_CAPACITY = 48  # neighbours kept per particle; more are counted as overflow
@@ -44,15 +45,12 @@ def bucket_of(cell: ivec3, bits: ivec3) -> ti.i32:
 def _count(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell: float, n_buckets: ti.i32,
            bits: ivec3,
            # outputs
-           bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray(),
-           cells: ti.types.ndarray()):
+           bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray()):
     for b in range(n_buckets):
         counts[b] = 0
     for i in range(n):
         if flags[i] == P.ACTIVE:
-            cell = cell_of(x[i], inv_cell)
-            cells[i] = cell
-            h = bucket_of(cell, bits)
+            h = bucket_of(cell_of(x[i], inv_cell), bits)
             bucket[i] = h
             rank[i] = ti.atomic_add(counts[h], 1)
         else:
@@ -115,44 +113,63 @@ def _sort_buckets(starts: ti.types.ndarray(), n_buckets: ti.i32,
 
 
 @ti.kernel
-def _gather(x: ti.types.ndarray(), radius: ti.types.ndarray(), cells: ti.types.ndarray(),
-            entries: ti.types.ndarray(), starts: ti.types.ndarray(), n_buckets: ti.i32,
+def _gather(x: ti.types.ndarray(), radius: ti.types.ndarray(), entries: ti.types.ndarray(),
+            starts: ti.types.ndarray(), n_buckets: ti.i32,
             # outputs
-            sorted_x: ti.types.ndarray(), sorted_radius: ti.types.ndarray(), sorted_cells: ti.types.ndarray()):
-    """Copies of positions, radii and cells in bucket order, so a query scans memory that
-    lies together instead of jumping through the particle arrays."""
+            sorted_xr: ti.types.ndarray()):
+    """Positions and radii (x, y, z, r) in bucket order: a query reads one 16-byte record per
+    candidate, from memory that lies together instead of jumping through the particle arrays."""
     for k in range(starts[n_buckets]):
         i = entries[k]
-        sorted_x[k] = x[i]
-        sorted_radius[k] = radius[i]
-        sorted_cells[k] = cells[i]
+        sorted_xr[k] = vec4(x[i], radius[i])
 
 
 @ti.func
-def _scan_row(begin, end, slot, i, xi: vec3, ri, row: ivec3, margin, found, touch, entries: ti.template(),
-              sorted_x: ti.template(), sorted_radius: ti.template(), sorted_cells: ti.template(),
-              neighbours: ti.template()):
-    """Entries begin..end that lie in the row of cells row .. row + (2, 0, 0) (other cells
-    may share the buckets) and within reach of particle i (at `slot`): append them to i's
-    list; count those touching it."""
+def row_part(row: ivec3, part, bits: ivec3, starts: ti.template()):
+    """Entries begin..end of part 0, 1 or 2 of the row of three cells row .. row + (2, 0, 0).
+    Three cells in a row have three buckets in a row, so part 0 is the whole row and the
+    others are empty, unless the row wraps around the table's edge: then part p is cell
+    row + (p, 0, 0) alone. Queries loop over the 9 rows around a cell and their 3 parts."""
+    first = bucket_of(row, bits)
+    last = bucket_of(row + ivec3(2, 0, 0), bits)
+    begin = 0
+    end = 0
+    if last == first + 2:
+        if part == 0:
+            begin = starts[first]
+            end = starts[last + 1]
+    else:
+        h = bucket_of(row + ivec3(part, 0, 0), bits)
+        begin = starts[h]
+        end = starts[h + 1]
+    return begin, end
+
+
+@ti.func
+def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: ti.template(),
+              sorted_xr: ti.template(), neighbours: ti.template()):
+    """Entries begin..end within reach of particle i (at `slot`): append them to i's list;
+    count those touching it. Other cells may share these buckets (cells a table width apart),
+    but their particles are at least a table width minus two cells away (three cells or
+    more, see HashGrid), beyond reach, so the distance test alone tells them apart.
+    Branch-free: most candidates are out of reach and which ones is not predictable; every
+    candidate is written at the list's end (the spare last column once the list is full)
+    and only those in reach advance it."""
     for k in range(begin, end):
-        cell = sorted_cells[k]
-        if k != slot and cell.y == row.y and cell.z == row.z and cell.x >= row.x and cell.x <= row.x + 2:
-            d2 = (xi - sorted_x[k]).norm_sqr()
-            contact = ri + sorted_radius[k]
-            if d2 < (contact + margin) * (contact + margin):
-                if found < NEIGHBOUR_CAPACITY:
-                    neighbours[i, found] = entries[k]
-                found += 1
-                if d2 < contact * contact:
-                    touch += 1
+        other = sorted_xr[k]
+        d2 = (xi - other.xyz).norm_sqr()
+        contact = ri + other.w
+        reach = contact + margin
+        keep = (k != slot) & (d2 < reach * reach)
+        neighbours[i, ti.min(found, NEIGHBOUR_CAPACITY)] = entries[k]
+        found += ti.cast(keep, ti.i32)
+        touch += ti.cast(keep & (d2 < contact * contact), ti.i32)
     return found, touch
 
 
 @ti.kernel
-def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, bits: ivec3, margin: float,
-                starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_x: ti.types.ndarray(),
-                sorted_radius: ti.types.ndarray(), sorted_cells: ti.types.ndarray(),
+def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_cell: float, bits: ivec3, margin: float,
+                starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(),
                 # outputs
                 neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
                 touching: ti.types.ndarray(), overflow: ti.types.ndarray()):
@@ -162,23 +179,14 @@ def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, bits: i
         i = entries[slot]
         found = 0
         touch = 0
-        xi = sorted_x[slot]
-        ri = sorted_radius[slot]
-        home = sorted_cells[slot]
+        own = sorted_xr[slot]
+        xi = own.xyz
+        home = cell_of(xi, inv_cell)
         for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
-            # the row of three cells home.x - 1 .. home.x + 1: three buckets in a row, so one
-            # range of entries, unless the row wraps around the table's edge
-            row = home + ivec3(-1, dy, dz)
-            first = bucket_of(row, bits)
-            last = bucket_of(row + ivec3(2, 0, 0), bits)
-            if last == first + 2:
-                found, touch = _scan_row(starts[first], starts[last + 1], slot, i, xi, ri, row, margin, found,
-                                         touch, entries, sorted_x, sorted_radius, sorted_cells, neighbours)
-            else:
-                for dx in ti.static(range(3)):
-                    h = bucket_of(row + ivec3(dx, 0, 0), bits)
-                    found, touch = _scan_row(starts[h], starts[h + 1], slot, i, xi, ri, row, margin, found, touch,
-                                             entries, sorted_x, sorted_radius, sorted_cells, neighbours)
+            for part in range(3):
+                begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
+                found, touch = _scan_row(begin, end, slot, i, xi, own.w, margin, found, touch, entries, sorted_xr,
+                                         neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
@@ -191,12 +199,15 @@ def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, bits: i
 
 
 class HashGrid:
-    """Buckets, their starts, the sorted entries (with copies of positions, radii and cells
-    in that order) and the neighbour lists of up to `capacity` particles; arrays grow with
-    the particle count, never per step."""
+    """Buckets, their starts, the sorted entries (with a copy of positions and radii in that
+    order) and the neighbour lists of up to `capacity` particles; arrays grow with the
+    particle count, never per step. The table is at least 8 buckets wide along each axis
+    (capacity >= 1024: 2^11 buckets or more), so the 27 cells of a query fall in 27 distinct
+    buckets and a cell sharing a bucket with one of them is at least 5 cells away."""
 
     def __init__(self):
         self.capacity = 0
+        self.list_capacity = 0
         self.n_buckets = 0
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
@@ -213,38 +224,46 @@ class HashGrid:
         self.bucket = ti.ndarray(ti.i32, shape=capacity)
         self.rank = ti.ndarray(ti.i32, shape=capacity)
         self.entries = ti.ndarray(ti.i32, shape=capacity)
-        self.cells = ti.Vector.ndarray(3, ti.i32, shape=capacity)
-        self.sorted_x = ti.Vector.ndarray(3, float, shape=capacity)
-        self.sorted_radius = ti.ndarray(float, shape=capacity)
-        self.sorted_cells = ti.Vector.ndarray(3, ti.i32, shape=capacity)
+        self.sorted_xr = ti.Vector.ndarray(4, float, shape=capacity)
         self.counts = ti.ndarray(ti.i32, shape=self.n_buckets)
         self.starts = ti.ndarray(ti.i32, shape=self.n_buckets + 1)
         self.block_sums = ti.ndarray(ti.i32, shape=self.n_buckets // SCAN_BLOCK + 2)
-        self.neighbours = ti.ndarray(ti.i32, shape=(capacity, NEIGHBOUR_CAPACITY))
-        self.neighbour_count = ti.ndarray(ti.i32, shape=capacity)
-        self.touching = ti.ndarray(ti.i32, shape=capacity)
+
+    def _ensure_lists(self):
+        """The neighbour lists, only for users of `build` (kernels that query the grid
+        themselves need the sort alone)."""
+        if self.list_capacity == self.capacity:
+            return
+        self.list_capacity = self.capacity
+        # one spare column: the neighbour kernel writes every candidate at the list's end
+        self.neighbours = ti.ndarray(ti.i32, shape=(self.capacity, NEIGHBOUR_CAPACITY + 1))
+        self.neighbour_count = ti.ndarray(ti.i32, shape=self.capacity)
+        self.touching = ti.ndarray(ti.i32, shape=self.capacity)
 
     def arrays(self) -> list:
         """Every array the grid holds (for memory accounting)."""
-        return [self.bucket, self.rank, self.entries, self.cells, self.sorted_x, self.sorted_radius,
-                self.sorted_cells, self.counts, self.starts, self.block_sums, self.neighbours,
-                self.neighbour_count, self.touching]
+        lists = [self.neighbours, self.neighbour_count, self.touching] if self.list_capacity else []
+        return [self.bucket, self.rank, self.entries, self.sorted_xr, self.counts, self.starts, self.block_sums] + lists
 
     def build(self, x, radius, flags, n: int, cell_size: float, margin: float):
         """Sort the first n particles (positions x, an ndarray) into buckets and collect, for
         each, the particles closer than r_i + r_j + margin (needs cell_size >= 2 r_max + margin),
         and how many of them touch it (closer than r_i + r_j) in `touching`."""
+        self.sort(x, radius, flags, n, cell_size)
+        self._ensure_lists()
+        _neighbours(flags, n, self.n_buckets, 1.0 / cell_size, self.bits, margin, self.starts, self.entries,
+                    self.sorted_xr, self.neighbours, self.neighbour_count, self.touching, self.overflow)
+
+    def sort(self, x, radius, flags, n: int, cell_size: float):
+        """The counting sort alone: buckets, their starts, the entries and the copy of positions
+        and radii in bucket order, for kernels that query the grid themselves (`row_part`)."""
         self._ensure(n)
         inv_cell = 1.0 / cell_size
-        _count(x, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts, self.cells)
+        _count(x, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts)
         _prefix_sum(self.counts, self.n_buckets, self.block_sums, self.starts)
         _scatter(self.bucket, self.rank, self.starts, n, self.entries)
         _sort_buckets(self.starts, self.n_buckets, self.entries)
-        _gather(x, radius, self.cells, self.entries, self.starts, self.n_buckets, self.sorted_x,
-                self.sorted_radius, self.sorted_cells)
-        _neighbours(flags, n, self.n_buckets, self.bits, margin, self.starts, self.entries, self.sorted_x,
-                    self.sorted_radius, self.sorted_cells, self.neighbours, self.neighbour_count, self.touching,
-                    self.overflow)
+        _gather(x, radius, self.entries, self.starts, self.n_buckets, self.sorted_xr)
 
     def neighbour_lists(self, n: int):
         """Host copies: a list of index arrays, one per particle (for tests and debugging)."""

@@ -8,6 +8,8 @@ import taichi as ti
 
 vec3 = ti.math.vec3
 
+TINY = 1e-12  # below this tangential speed (m/s) the friction scale is moot: v_T is ~0
+
 WET_LINEAR = 0       # v_T *= max(0, 1 - D dv_N)   (seed 001)
 WET_EXPONENTIAL = 1  # v_T *= exp(-D dv_N)          (seed 001's unconditionally stable form)
 
@@ -21,21 +23,20 @@ def respond(v_rel: vec3, n: vec3, restitution, friction, wet_friction, wet_law: 
     when the bracket reaches 0); then wet friction from D = wet_friction.
     Returns (v_rel_new, dv_N).
     """
+    # Written without branches (selects instead): callers run it over many contacts in a
+    # loop, and whether one approaches is not predictable; the selects give the same result.
     vn = v_rel.dot(n)
-    out = v_rel
-    dvn = 0.0
-    if vn < 0.0:
-        vt = v_rel - vn * n
-        dvn = (1.0 + restitution) * (-vn)
-        vt_len = vt.norm()
-        scale = 0.0
-        if vt_len > 0.0:
-            scale = ti.max(0.0, 1.0 - friction * dvn / vt_len)
-        if ti.static(wet_law == WET_LINEAR):
-            scale *= ti.max(0.0, 1.0 - wet_friction * dvn)
-        else:
-            scale *= ti.exp(-wet_friction * dvn)
-        out = scale * vt - restitution * vn * n
+    approaching = vn < 0.0
+    vt = v_rel - vn * n
+    dvn = ti.select(approaching, (1.0 + restitution) * (-vn), 0.0)
+    vt_len = vt.norm()
+    # vt_len = 0: vt is zero too and the scale does not matter
+    scale = ti.max(0.0, 1.0 - friction * dvn / ti.max(vt_len, TINY))
+    if ti.static(wet_law == WET_LINEAR):
+        scale *= ti.max(0.0, 1.0 - wet_friction * dvn)
+    else:
+        scale *= ti.exp(-wet_friction * dvn)
+    out = ti.select(approaching, scale * vt - restitution * vn * n, v_rel)
     return out, dvn
 
 

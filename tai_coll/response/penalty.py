@@ -60,13 +60,12 @@ def friction_force(vt_pred: vec3, fn, mass, dt, static_friction, kinetic_frictio
     the sliding direction within a substep. The cap is the regularisation at v_t -> 0: no
     chatter, no division by zero.
     """
+    speed = vt_pred.norm()
     f_stop = -mass / dt * vt_pred
-    need = f_stop.norm()
-    force = vec3(0.0, 0.0, 0.0)
-    if need <= static_friction * fn:
-        force = f_stop
-    else:
-        slide = ti.min(need, (kinetic_friction + viscous_friction * vt_pred.norm()) * fn)
+    need = mass / dt * speed  # |f_stop|
+    force = f_stop
+    if need > static_friction * fn:
+        slide = ti.min(need, (kinetic_friction + viscous_friction * speed) * fn)
         force = (slide / need) * f_stop
     return force
 

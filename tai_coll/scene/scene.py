@@ -92,7 +92,7 @@ class Scene:
         friction from `material`, then the colliders. With a tc.PenaltySolver, pairs are
         DEM spring-dashpots with the solver's stiffness and damping (reduced mass) and the
         material's friction. Options: iterations (contact passes,
-        default 4), projection_iterations (4), relaxation (1.5), margin (0.5 of the largest
+        default 4), projection_iterations (4), relaxation (1.5), margin (0.25 of the largest
         radius). See tai_coll.solvers.pairs. Returns the settings object."""
         self._check_runtime()
         if not (hasattr(self.solver, "resolve_candidates") or hasattr(self.solver, "kernel_constants")):

@@ -22,11 +22,12 @@ number on both sides, so the impulses stay equal and opposite) and over-relaxed 
 `relaxation`, never beyond the full share (an isolated pair gets exactly its impulse).
 """
 
+import numpy as np
 import taichi as ti
 
 from .. import validate
 from ..materials import Material
-from ..neighbors.hash_grid import HashGrid
+from ..neighbors.hash_grid import HashGrid, cell_of, row_part
 from ..response.collide import WET_LAWS
 from ..response.laws import respond
 from ..response.penalty import friction_force, spring_damper
@@ -34,6 +35,8 @@ from .penalty import contact_constants
 from ..scene import particles as P
 
 vec3 = ti.math.vec3
+ivec3 = ti.math.ivec3
+vec4 = ti.math.vec4
 
 TINY = 1e-12
 
@@ -56,14 +59,12 @@ def _predict(x: ti.types.ndarray(), v: ti.types.ndarray(), flags: ti.types.ndarr
 @ti.func
 def pair_normal(xi: vec3, xj: vec3, i, j):
     """Unit normal from j to i; coincident centres get a fixed axis whose sign depends on
-    the index order, so the two sides still see opposite normals."""
+    the index order, so the two sides still see opposite normals. Branch-free (the passes
+    call it for every listed neighbour)."""
     d = xi - xj
     dist = d.norm()
-    n = vec3(0.0, 1.0, 0.0)
-    if dist > TINY:
-        n = d / dist
-    elif i < j:
-        n = vec3(0.0, -1.0, 0.0)
+    axis = vec3(0.0, ti.select(i < j, -1.0, 1.0), 0.0)
+    n = ti.select(dist > TINY, d / ti.max(dist, TINY), axis)
     return n, dist
 
 
@@ -93,23 +94,28 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
         approaching = 0
         xi = x1[i]
         ri = radius[i]
+        vi = v_test[i]
         for k in range(neighbour_count[i]):
+            # every listed neighbour is evaluated and the touching, approaching ones kept
+            # (selects, no branches: which ones they are is not predictable, and without
+            # branches the processor overlaps the neighbours' arithmetic)
             j = neighbours[i, k]
+            xj = x1[j]
             reach = ri + radius[j]
-            if (xi - x1[j]).norm_sqr() < reach * reach:  # touching: the rest only for contacts
-                nrm, dist = pair_normal(xi, x1[j], i, j)
-                count += 1
-                v_rel = v_test[i] - v_test[j]
-                v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
-                if dvn > 0.0:
-                    approaching += 1
-                    inv_mj = 1.0 / mass[j]
-                    impulse = (v_new - v_rel) / (inv_mi + inv_mj)
-                    acc += pair_share(contacts, i, j, relaxation) * inv_mi * impulse
+            touching = (xi - xj).norm_sqr() < reach * reach
+            nrm, dist = pair_normal(xi, xj, i, j)
+            v_rel = vi - v_test[j]
+            v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
+            approach = touching & (dvn > 0.0)
+            inv_mj = 1.0 / mass[j]
+            impulse = (v_new - v_rel) / (inv_mi + inv_mj)
+            acc += ti.select(approach, pair_share(contacts, i, j, relaxation) * inv_mi, 0.0) * impulse
+            count += ti.cast(touching, ti.i32)
+            approaching += ti.cast(approach, ti.i32)
         dv[i] = acc
         contacts_now[i] = count
-        if approaching > 0:
-            ti.atomic_add(changed[0], 1)
+        if approaching > 0 and changed[0] == 0:
+            changed[0] = 1  # read first: a shared line, written once, not an atomic per particle
 
 
 @ti.kernel
@@ -143,19 +149,21 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
         count = 0
         xi = x1[i]
         ri = radius[i]
-        for k in range(neighbour_count[i]):
+        for k in range(neighbour_count[i]):  # branch-free, as in _velocity_pass
             j = neighbours[i, k]
+            xj = x1[j]
             reach = ri + radius[j]
-            if (xi - x1[j]).norm_sqr() < reach * reach:
-                nrm, dist = pair_normal(xi, x1[j], i, j)
-                overlap = reach - dist
-                count += 1
-                inv_mj = 1.0 / mass[j]
-                acc += pair_share(contacts, i, j, relaxation) * overlap * inv_mi / (inv_mi + inv_mj) * nrm
+            nrm, dist = pair_normal(xi, xj, i, j)
+            overlap = reach - dist
+            touching = overlap > 0.0
+            inv_mj = 1.0 / mass[j]
+            share = pair_share(contacts, i, j, relaxation) * overlap * inv_mi / (inv_mi + inv_mj)
+            acc += ti.select(touching, share, 0.0) * nrm
+            count += ti.cast(touching, ti.i32)
         dx[i] = acc
         contacts_now[i] = count
-        if count > 0:
-            ti.atomic_add(changed[0], 1)
+        if count > 0 and changed[0] == 0:
+            changed[0] = 1
 
 
 @ti.kernel
@@ -171,48 +179,101 @@ def _apply_position(flags: ti.types.ndarray(), n: ti.i32, dx: ti.types.ndarray()
 
 
 @ti.kernel
-def _overlap_stats(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
-                   neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
+def _overlap_stats(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_cell: float, bits: ivec3,
+                   starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(),
                    # outputs
-                   worst: ti.types.ndarray()):
+                   stats: ti.types.ndarray()):
+    """Per particle (max, sum, count) of its overlaps relative to the smaller radius of each
+    pair, straight from the sorted grid (the host reduces them: no atomics per pair)."""
+    for slot in range(starts[n_buckets]):
+        own = sorted_xr[slot]
+        home = cell_of(own.xyz, inv_cell)
+        worst = 0.0
+        total = 0.0
+        count = 0
+        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
+            for part in range(3):
+                begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
+                for k in range(begin, end):
+                    other = sorted_xr[k]
+                    overlap = (own.w + other.w - (own.xyz - other.xyz).norm()) / ti.min(own.w, other.w)
+                    if k != slot and overlap > 0.0:
+                        worst = ti.max(worst, overlap)
+                        total += overlap
+                        count += 1
+        stats[entries[slot]] = vec3(worst, total, count)
     for i in range(n):
-        if flags[i] == P.ACTIVE:
-            for k in range(neighbour_count[i]):
-                j = neighbours[i, k]
-                overlap = (radius[i] + radius[j] - (x[i] - x[j]).norm()) / ti.min(radius[i], radius[j])
-                if overlap > 0.0:
-                    ti.atomic_max(worst[0], overlap)
-                    ti.atomic_add(worst[1], overlap)
-                    ti.atomic_add(worst[2], 1.0)
+        if flags[i] != P.ACTIVE:
+            stats[i] = vec3(0.0, 0.0, 0.0)
+
+
+FORCE_BATCH = 16  # touching neighbours collected before their forces are computed
+
+
+@ti.func
+def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), mass: ti.template(),
+                  entries: ti.template(), sorted_xr: ti.template(), dt, stiffness, per_mass, damping, is_ratio,
+                  static_friction, kinetic_friction, viscous_friction):
+    """The summed DEM forces on particle i (position and radius `own`) from the touching
+    neighbours at slots batch[0..count) of the sorted grid."""
+    total = vec3(0.0, 0.0, 0.0)
+    for m in range(count):
+        k = batch[m]
+        j = entries[k]
+        other = sorted_xr[k]
+        nrm, dist = pair_normal(own.xyz, other.xyz, i, j)
+        m_pair = mass[i] * mass[j] / (mass[i] + mass[j])
+        stiff, damp = contact_constants(m_pair, stiffness, per_mass, damping, is_ratio)
+        v_rel = v[i] - v[j]
+        vn = v_rel.dot(nrm)
+        fn = spring_damper(own.w + other.w - dist, vn, stiff, damp)
+        total += fn * nrm
+        total += friction_force(v_rel - vn * nrm, fn, m_pair, dt, static_friction, kinetic_friction,
+                                viscous_friction)
+    return total
 
 
 @ti.kernel
-def _pair_forces(x: ti.types.ndarray(), v: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(),
-                 n: ti.i32, neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(), dt: float,
-                 stiffness: float, per_mass: ti.i32, damping: float, is_ratio: ti.i32, static_friction: float,
-                 kinetic_friction: float, viscous_friction: float,
+def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
+                 n_buckets: ti.i32, inv_cell: float, bits: ivec3, starts: ti.types.ndarray(),
+                 entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(), dt: float, stiffness: float,
+                 per_mass: ti.i32, damping: float, is_ratio: ti.i32, static_friction: float, kinetic_friction: float,
+                 viscous_friction: float,
                  # outputs
                  force: ti.types.ndarray()):
     """DEM contact (PHYSICS.md 4 between two particles): a spring-damper on the overlap,
     f_n = k overlap - D (v_rel . n), only pushing, and friction bounded by mu f_n. The
     constants use the pair's reduced mass m_a m_b / (m_a + m_b), the same on both sides,
-    so f_ab = -f_ba and momentum is conserved."""
-    for i in range(n):
+    so f_ab = -f_ba and momentum is conserved. Forces are at the substep's start, so the
+    grid is queried directly (no neighbour lists), in bucket order: the candidates are
+    scanned without branches into a small batch of touching ones (which candidates touch is
+    not predictable), and the batch's forces computed in a loop of their own."""
+    for slot in range(starts[n_buckets]):
+        i = entries[slot]
+        own = sorted_xr[slot]
+        home = cell_of(own.xyz, inv_cell)
         total = vec3(0.0, 0.0, 0.0)
-        for k in range(neighbour_count[i]):
-            j = neighbours[i, k]
-            nrm, dist = pair_normal(x[i], x[j], i, j)
-            overlap = radius[i] + radius[j] - dist
-            if overlap > 0.0:
-                m_pair = mass[i] * mass[j] / (mass[i] + mass[j])
-                stiff, damp = contact_constants(m_pair, stiffness, per_mass, damping, is_ratio)
-                v_rel = v[i] - v[j]
-                vn = v_rel.dot(nrm)
-                fn = spring_damper(overlap, vn, stiff, damp)
-                total += fn * nrm
-                total += friction_force(v_rel - vn * nrm, fn, m_pair, dt, static_friction, kinetic_friction,
-                                        viscous_friction)
+        batch = ti.Vector.zero(ti.i32, FORCE_BATCH)
+        count = 0
+        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
+            for part in range(3):
+                begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
+                for k in range(begin, end):
+                    other = sorted_xr[k]
+                    reach = own.w + other.w
+                    batch[count] = k
+                    count += ti.cast((k != slot) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
+                    if count == FORCE_BATCH:  # rare (many small neighbours): empty the batch
+                        total += _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness,
+                                               per_mass, damping, is_ratio, static_friction, kinetic_friction,
+                                               viscous_friction)
+                        count = 0
+        total += _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness, per_mass, damping,
+                               is_ratio, static_friction, kinetic_friction, viscous_friction)
         force[i] = total
+    for i in range(n):
+        if flags[i] != P.ACTIVE:
+            force[i] = vec3(0.0, 0.0, 0.0)
 
 
 class ParticleCollisions:
@@ -224,11 +285,15 @@ class ParticleCollisions:
     relaxation: over-relaxation of each Jacobi pass (1: none; up to 2). With the default
         1.5 and 4 + 4 passes, a pile of 10,000 settles with about 1.5 % mean overlap.
     margin: extra reach of the neighbour lists, as a fraction of the largest radius, so
-        contacts created while the passes move particles are still seen.
+        contacts created while the passes move particles are still seen (the passes move a
+        particle by at most dt times its change of velocity; a contact missed in one substep
+        is found in the next). Larger margins cost time: the grid's cells are 2 + margin
+        radii wide and every listed neighbour is evaluated in every pass.
+    (The penalty variant needs no margin: its forces are evaluated once, at the substep's start.)
     """
 
     def __init__(self, *, material: Material | None = None, iterations: int = 4, projection_iterations: int = 4,
-                 relaxation: float = 1.5, margin: float = 0.5):
+                 relaxation: float = 1.5, margin: float = 0.25):
         if material is None:
             material = Material()
         elif not isinstance(material, Material):
@@ -270,15 +335,14 @@ class ParticleCollisions:
         particles = scene._particles
         n = particles.count
         self._ensure(particles.capacity)
-        r_max = scene._max_radius()
-        margin = self.margin * r_max
-        self.grid.build(particles.x, particles.radius, particles.flags, n, 2.0 * r_max + margin, 0.0)
+        grid = self.grid
+        cell = 2.0 * scene._max_radius()
+        grid.sort(particles.x, particles.radius, particles.flags, n, cell)
         m = self.material
-        _pair_forces(particles.x, particles.v, particles.mass, particles.radius, n, self.grid.neighbours,
-                     self.grid.neighbour_count, dt, *scene.solver.kernel_constants(), m.static_friction, m.friction,
-                     m.wet_friction, self.delta)
+        _pair_forces(particles.v, particles.mass, particles.flags, n, grid.n_buckets, 1.0 / cell, grid.bits,
+                     grid.starts, grid.entries, grid.sorted_xr, dt, *scene.solver.kernel_constants(),
+                     m.static_friction, m.friction, m.wet_friction, self.delta)
         scene.solver.advance(scene, dt, 1, force=self.delta)
-        self.neighbour_overflow += self.grid.take_overflow()
 
     def _impulse_substep(self, scene, dt: float):
         particles = scene._particles
@@ -334,11 +398,14 @@ class ParticleCollisions:
         {"max": ..., "mean": ... over overlapping pairs, "pairs": count}."""
         particles = scene._particles
         n = particles.count
-        r_max = scene._max_radius()
-        self.grid.build(particles.x, particles.radius, particles.flags, n, 2.0 * r_max, 0.0)
-        worst = ti.ndarray(float, shape=3)
-        worst.fill(0.0)
-        _overlap_stats(particles.x, particles.radius, particles.flags, n, self.grid.neighbours,
-                       self.grid.neighbour_count, worst)
-        mx, total, pairs = worst.to_numpy()
+        grid = self.grid
+        cell = 2.0 * scene._max_radius()
+        grid.sort(particles.x, particles.radius, particles.flags, n, cell)
+        self._ensure(particles.capacity)
+        _overlap_stats(particles.flags, n, grid.n_buckets, 1.0 / cell, grid.bits, grid.starts, grid.entries,
+                       grid.sorted_xr, self.delta)
+        stats = self.delta.to_numpy()[:n]
+        mx = stats[:, 0].max(initial=0.0)
+        total = stats[:, 1].sum(dtype=np.float64)
+        pairs = stats[:, 2].sum(dtype=np.float64)
         return {"max": float(mx), "mean": float(total / pairs) if pairs else 0.0, "pairs": int(pairs // 2)}

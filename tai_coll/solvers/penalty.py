@@ -50,10 +50,12 @@ def contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_rati
     """Per particle k (N/m) and D (N s/m). stiffness_per_mass: `stiffness` holds (2 pi f)^2,
     k = m (2 pi f)^2; damping_is_ratio: `damping` holds zeta, D = 2 zeta sqrt(m k)."""
     k = stiffness
+    d = damping
     if stiffness_per_mass != 0:
         k = m * stiffness
-    d = damping
-    if damping_is_ratio != 0:
+        if damping_is_ratio != 0:
+            d = 2.0 * damping * m * ti.sqrt(stiffness)  # sqrt(m k) = m sqrt((2 pi f)^2): hoisted out of loops
+    elif damping_is_ratio != 0:
         d = 2.0 * damping * ti.sqrt(m * k)
     return k, d
 
