@@ -89,7 +89,7 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
     changed[0] = 0
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
-        inv_mi = 1.0 / mass[i]
+        mi = mass[i]
         count = 0
         approaching = 0
         xi = x1[i]
@@ -107,9 +107,9 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
             v_rel = vi - v_test[j]
             v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
             approach = touching & (dvn > 0.0)
-            inv_mj = 1.0 / mass[j]
-            impulse = (v_new - v_rel) / (inv_mi + inv_mj)
-            acc += ti.select(approach, pair_share(contacts, i, j, relaxation) * inv_mi, 0.0) * impulse
+            # i's part of the pair impulse I = (v_new - v_rel) / (1/m_i + 1/m_j): I / m_i
+            part = mass[j] / (mi + mass[j])
+            acc += ti.select(approach, pair_share(contacts, i, j, relaxation) * part, 0.0) * (v_new - v_rel)
             count += ti.cast(touching, ti.i32)
             approaching += ti.cast(approach, ti.i32)
         dv[i] = acc
@@ -145,7 +145,7 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
     changed[0] = 0
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
-        inv_mi = 1.0 / mass[i]
+        mi = mass[i]
         count = 0
         xi = x1[i]
         ri = radius[i]
@@ -156,8 +156,8 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
             nrm, dist = pair_normal(xi, xj, i, j)
             overlap = reach - dist
             touching = overlap > 0.0
-            inv_mj = 1.0 / mass[j]
-            share = pair_share(contacts, i, j, relaxation) * overlap * inv_mi / (inv_mi + inv_mj)
+            # i's part of the separation: (1/m_i) / (1/m_i + 1/m_j)
+            share = pair_share(contacts, i, j, relaxation) * overlap * mass[j] / (mi + mass[j])
             acc += ti.select(touching, share, 0.0) * nrm
             count += ti.cast(touching, ti.i32)
         dx[i] = acc
