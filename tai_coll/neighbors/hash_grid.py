@@ -145,6 +145,18 @@ def row_part(row: ivec3, part, bits: ivec3, starts: ti.template()):
     return begin, end
 
 
+QUERY_RANGES = 27  # nine rows of three parts: see query_range
+
+
+@ti.func
+def query_range(home: ivec3, q, bits: ivec3, starts: ti.template()):
+    """Range q (0 .. QUERY_RANGES - 1) of the entries a query around cell `home` reads: part
+    q % 3 (see row_part) of row q // 3 of the nine rows of three cells, home.x - 1 .. home.x + 1
+    at each dy, dz in -1 .. 1. Loop over every q to visit the 27 cells around `home`."""
+    row = q // 3
+    return row_part(home + ivec3(-1, row // 3 - 1, row % 3 - 1), q % 3, bits, starts)
+
+
 @ti.func
 def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: ti.template(),
               sorted_xr: ti.template(), neighbours: ti.template()):
@@ -182,7 +194,7 @@ def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_cel
         own = sorted_xr[slot]
         xi = own.xyz
         home = cell_of(xi, inv_cell)
-        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
+        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):  # query_range's rows, unrolled: the hot path
             for part in range(3):
                 begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
                 found, touch = _scan_row(begin, end, slot, i, xi, own.w, margin, found, touch, entries, sorted_xr,

@@ -27,7 +27,7 @@ import taichi as ti
 
 from .. import validate
 from ..materials import Material
-from ..neighbors.hash_grid import HashGrid, cell_of, row_part
+from ..neighbors.hash_grid import QUERY_RANGES, HashGrid, cell_of, query_range
 from ..response.collide import WET_LAWS
 from ..response.laws import respond
 from ..response.penalty import friction_force, spring_damper
@@ -191,16 +191,15 @@ def _overlap_stats(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_
         worst = 0.0
         total = 0.0
         count = 0
-        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
-            for part in range(3):
-                begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
-                for k in range(begin, end):
-                    other = sorted_xr[k]
-                    overlap = (own.w + other.w - (own.xyz - other.xyz).norm()) / ti.min(own.w, other.w)
-                    if k != slot and overlap > 0.0:
-                        worst = ti.max(worst, overlap)
-                        total += overlap
-                        count += 1
+        for q in range(QUERY_RANGES):
+            begin, end = query_range(home, q, bits, starts)
+            for k in range(begin, end):
+                other = sorted_xr[k]
+                overlap = (own.w + other.w - (own.xyz - other.xyz).norm()) / ti.min(own.w, other.w)
+                if k != slot and overlap > 0.0:
+                    worst = ti.max(worst, overlap)
+                    total += overlap
+                    count += 1
         stats[entries[slot]] = vec3(worst, total, count)
     for i in range(n):
         if flags[i] != P.ACTIVE:
@@ -255,19 +254,18 @@ def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.type
         total = vec3(0.0, 0.0, 0.0)
         batch = ti.Vector.zero(ti.i32, FORCE_BATCH)
         count = 0
-        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):
-            for part in range(3):
-                begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
-                for k in range(begin, end):
-                    other = sorted_xr[k]
-                    reach = own.w + other.w
-                    batch[count] = k
-                    count += ti.cast((k != slot) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
-                    if count == FORCE_BATCH:  # rare (many small neighbours): empty the batch
-                        total += _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness,
-                                               per_mass, damping, is_ratio, static_friction, kinetic_friction,
-                                               viscous_friction)
-                        count = 0
+        for q in range(QUERY_RANGES):
+            begin, end = query_range(home, q, bits, starts)
+            for k in range(begin, end):
+                other = sorted_xr[k]
+                reach = own.w + other.w
+                batch[count] = k
+                count += ti.cast((k != slot) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
+                if count == FORCE_BATCH:  # rare (many small neighbours): empty the batch
+                    total += _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness,
+                                           per_mass, damping, is_ratio, static_friction, kinetic_friction,
+                                           viscous_friction)
+                    count = 0
         total += _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness, per_mass, damping,
                                is_ratio, static_friction, kinetic_friction, viscous_friction)
         force[i] = total
