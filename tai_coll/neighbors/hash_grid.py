@@ -268,7 +268,9 @@ class HashGrid:
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
-        and radii in bucket order, for kernels that query the grid themselves (`row_part`)."""
+        and radii in bucket order, for kernels that query the grid themselves (`query_range`).
+        Returns what such a kernel takes, in this order: (n_buckets, 1 / cell_size, bits,
+        starts, entries, sorted_xr)."""
         self._ensure(n)
         inv_cell = 1.0 / cell_size
         _count(x, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts)
@@ -276,6 +278,7 @@ class HashGrid:
         _scatter(self.bucket, self.rank, self.starts, n, self.entries)
         _sort_buckets(self.starts, self.n_buckets, self.entries)
         _gather(x, radius, self.entries, self.starts, self.n_buckets, self.sorted_xr)
+        return self.n_buckets, inv_cell, self.bits, self.starts, self.entries, self.sorted_xr
 
     def neighbour_lists(self, n: int):
         """Host copies: a list of index arrays, one per particle (for tests and debugging)."""

@@ -333,12 +333,9 @@ class ParticleCollisions:
         particles = scene._particles
         n = particles.count
         self._ensure(particles.capacity)
-        grid = self.grid
-        cell = 2.0 * scene._max_radius()
-        grid.sort(particles.x, particles.radius, particles.flags, n, cell)
+        query = self.grid.sort(particles.x, particles.radius, particles.flags, n, 2.0 * scene._max_radius())
         m = self.material
-        _pair_forces(particles.v, particles.mass, particles.flags, n, grid.n_buckets, 1.0 / cell, grid.bits,
-                     grid.starts, grid.entries, grid.sorted_xr, dt, *scene.solver.kernel_constants(),
+        _pair_forces(particles.v, particles.mass, particles.flags, n, *query, dt, *scene.solver.kernel_constants(),
                      m.static_friction, m.friction, m.wet_friction, self.delta)
         scene.solver.advance(scene, dt, 1, force=self.delta)
 
@@ -396,12 +393,9 @@ class ParticleCollisions:
         {"max": ..., "mean": ... over overlapping pairs, "pairs": count}."""
         particles = scene._particles
         n = particles.count
-        grid = self.grid
-        cell = 2.0 * scene._max_radius()
-        grid.sort(particles.x, particles.radius, particles.flags, n, cell)
+        query = self.grid.sort(particles.x, particles.radius, particles.flags, n, 2.0 * scene._max_radius())
         self._ensure(particles.capacity)
-        _overlap_stats(particles.flags, n, grid.n_buckets, 1.0 / cell, grid.bits, grid.starts, grid.entries,
-                       grid.sorted_xr, self.delta)
+        _overlap_stats(particles.flags, n, *query, self.delta)
         stats = self.delta.to_numpy()[:n]
         mx = stats[:, 0].max(initial=0.0)
         total = stats[:, 1].sum(dtype=np.float64)
