@@ -301,3 +301,132 @@ def test_pile_sees_the_floor_after_particles_are_moved():
     scene.set_velocities([[0.0, -4.0, 0.0], [0.0, -4.0, 0.0]])
     scene.step(5)
     assert np.all(scene.positions()[:, 1] >= r * (1 - 2e-3)), scene.positions()
+
+
+def test_head_on_with_lists_kept_between_substeps():
+    # Verlet lists (skin > 0): rebuilt only when a particle has moved skin / 2 since the
+    # last build; the pair approaching at 2 m/s is still caught and follows the textbook law.
+    ma, mb, va, vb, e = 1.0, 3.0, 1.0, -1.0, 0.5
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=10)
+    pairs = scene.enable_particle_collisions(material=tc.Material(restitution=e), skin=0.5)
+    scene.add_particles(positions=[[-0.1, 0, 0], [0.1, 0, 0]], velocities=[[va, 0, 0], [vb, 0, 0]],
+                        mass=np.array([ma, mb]), radius=0.05)
+    scene.step(150)
+    v = scene.velocities()
+    assert v[0, 0] == pytest.approx((ma * va + mb * vb - mb * e * (va - vb)) / (ma + mb), rel=0.01)
+    assert v[1, 0] == pytest.approx((ma * va + mb * vb + ma * e * (va - vb)) / (ma + mb), rel=0.01)
+    assert np.allclose(ma * v[0] + mb * v[1], [ma * va + mb * vb, 0, 0], atol=1e-12)
+    # each moves 0.1 mm a substep: a rebuild every 62 substeps or so (skin / 2 = 12.5 mm)
+    # until they meet, a few while they touch and part
+    assert 10 <= pairs.list_builds < 200
+
+
+def test_resting_stack_keeps_its_lists():
+    r = 0.01
+    scene = tc.Scene(dt=1 / 1000, substeps=5)
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.2, friction=0.4))
+    pairs = scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), skin=0.5)
+    scene.add_particles(positions=[[0, r + k * 2.05 * r, 0] for k in range(10)], radius=r)
+    scene.step(60)
+    builds = pairs.list_builds
+    scene.step(40)
+    assert pairs.list_builds == builds  # at rest: 200 substeps on the same lists
+    assert np.abs(scene.velocities()).max() < 1e-3
+    overlap = scene.particle_overlap()
+    assert overlap["pairs"] == 9 and overlap["max"] < 0.05
+    # a write from the host drops the lists: the stack moved sideways is listed anew
+    scene.set_positions(scene.positions() + [0.5, 0.0, 0.0])
+    scene.step(1)
+    assert pairs.list_builds == builds + 1
+    assert scene.particle_overlap()["pairs"] == 9
+
+
+def test_reordering_keeps_the_public_order():
+    # The pair solver puts the store in cell order; what the scene reads and writes is
+    # still in the order the particles were added, and the physics is the same.
+    rng = np.random.default_rng(7)
+    n = 400
+    x = rng.uniform([-0.1, 0.01, -0.1], [0.1, 0.3, 0.1], (n, 3))
+    mass = rng.uniform(1.0, 2.0, n)
+    radius = rng.uniform(0.008, 0.012, n)
+    runs = {}
+    for reorder in (False, True):
+        scene = tc.Scene(dt=1 / 1000, substeps=5)
+        scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.2, friction=0.4))
+        scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), reorder=reorder)
+        scene.add_particles(positions=x, mass=mass, radius=radius)
+        scene.step(20)
+        runs[reorder] = scene
+    ids = runs[True]._particles._ids_host
+    assert ids is not None and not np.array_equal(ids, np.arange(n))  # the store was permuted
+    assert runs[False]._particles._ids_host is None
+    assert np.array_equal(runs[True].masses(), runs[False].masses())
+    assert np.array_equal(runs[True].radii(), runs[False].radii())
+    # the same physics: only the order of each particle's sum over neighbours differs
+    assert np.allclose(runs[True].positions(), runs[False].positions(), atol=1e-9)
+    assert np.allclose(runs[True].velocities(), runs[False].velocities(), atol=1e-6)
+    # writes and appends in public order
+    scene = runs[True]
+    v = rng.normal(size=(n, 3))
+    scene.set_velocities(v)
+    assert np.array_equal(scene.velocities(), v)
+    extra = np.array([[0.5, 0.5, 0.5], [0.6, 0.5, 0.5]])
+    scene.add_particles(positions=extra, radius=0.01)
+    assert np.array_equal(scene.positions()[n:], extra)
+    assert np.array_equal(scene.velocities()[:n], v)
+    assert np.array_equal(scene.radii()[:n], radius)
+    scene.step(1)
+    assert np.all(scene.status() == "active")
+
+
+def test_store_permute_moves_every_quantity():
+    from tai_coll.scene.particles import ParticleStore
+    import taichi as ti
+
+    rng = np.random.default_rng(2)
+    n = 50
+    store = ParticleStore(capacity=64)
+    x, v = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    mass, radius = rng.uniform(1, 2, n), rng.uniform(0.1, 0.2, n)
+    store.add(x, v, mass, radius)
+    store.clearance.from_numpy(np.arange(64, dtype=store.clearance.to_numpy().dtype))
+    order = rng.permutation(n)
+    perm = ti.ndarray(ti.i32, shape=n)
+    perm.from_numpy(order.astype(np.int32))
+    store.permute(perm, n)
+    assert np.array_equal(store.x.to_numpy()[:n], x[order])  # slot k holds what slot order[k] held
+    assert np.array_equal(store.clearance.to_numpy()[:n], order)
+    for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius)):
+        assert np.array_equal(store.read(name), values), name
+    store.add(x[:30], v[:30], mass[:30], radius[:30])  # grows past the capacity: order reset
+    assert store._ids_host is None
+    assert np.array_equal(store.read("x"), np.concatenate([x, x[:30]]))
+    with pytest.raises(ValueError, match="n must be"):
+        store.permute(perm, n - 1)
+
+
+def test_grid_entries_order_every_particle():
+    # Particles no longer simulated sit after the simulated ones, in a bucket no query visits.
+    import taichi as ti
+    from tai_coll import runtime
+
+    rng = np.random.default_rng(4)
+    n = 300
+    x = rng.uniform(-0.2, 0.2, (n, 3))
+    status = (rng.uniform(size=n) < 0.2).astype(np.int32)
+    xs = ti.Vector.ndarray(3, float, shape=n)
+    xs.from_numpy(x.astype(runtime.float_dtype()))
+    rs = ti.ndarray(float, shape=n)
+    rs.fill(0.02)
+    flags = ti.ndarray(ti.i32, shape=n)
+    flags.from_numpy(status)
+    grid = HashGrid()
+    n_buckets = grid.sort(xs, rs, flags, n, 0.04)[0]
+    entries = grid.entries.to_numpy()[:n]
+    active = int(grid.starts.to_numpy()[n_buckets])
+    assert np.array_equal(np.sort(entries), np.arange(n))
+    assert active == np.count_nonzero(status == 0)
+    assert np.all(status[entries[:active]] == 0) and np.all(status[entries[active:]] != 0)
+    grid.build(xs, rs, flags, n, 0.05, 0.01)
+    lists = grid.neighbour_lists(n)
+    assert all(np.all(status[lst] == 0) for lst in lists)

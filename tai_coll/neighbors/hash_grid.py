@@ -46,15 +46,16 @@ def _count(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell
            bits: ivec3,
            # outputs
            bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray()):
-    for b in range(n_buckets):
+    for b in range(n_buckets + 1):
         counts[b] = 0
     for i in range(n):
+        # particles no longer simulated go to a bucket of their own past the table's end,
+        # which no query visits: the entries are then an ordering of all n particles
+        h = n_buckets
         if flags[i] == P.ACTIVE:
             h = bucket_of(cell_of(x[i], inv_cell), bits)
-            bucket[i] = h
-            rank[i] = ti.atomic_add(counts[h], 1)
-        else:
-            bucket[i] = -1
+        bucket[i] = h
+        rank[i] = ti.atomic_add(counts[h], 1)
 
 
 SCAN_BLOCK = 1024  # buckets per block of the parallel prefix sum
@@ -91,8 +92,7 @@ def _scatter(bucket: ti.types.ndarray(), rank: ti.types.ndarray(), starts: ti.ty
              # outputs
              entries: ti.types.ndarray()):
     for i in range(n):
-        if bucket[i] >= 0:
-            entries[starts[bucket[i]] + rank[i]] = i
+        entries[starts[bucket[i]] + rank[i]] = i
 
 
 @ti.kernel
@@ -237,8 +237,9 @@ class HashGrid:
         self.rank = ti.ndarray(ti.i32, shape=capacity)
         self.entries = ti.ndarray(ti.i32, shape=capacity)
         self.sorted_xr = ti.Vector.ndarray(4, float, shape=capacity)
-        self.counts = ti.ndarray(ti.i32, shape=self.n_buckets)
-        self.starts = ti.ndarray(ti.i32, shape=self.n_buckets + 1)
+        # one bucket more than the table: the particles no longer simulated (see _count)
+        self.counts = ti.ndarray(ti.i32, shape=self.n_buckets + 1)
+        self.starts = ti.ndarray(ti.i32, shape=self.n_buckets + 2)
         self.block_sums = ti.ndarray(ti.i32, shape=self.n_buckets // SCAN_BLOCK + 2)
 
     def _ensure_lists(self):
@@ -270,13 +271,15 @@ class HashGrid:
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
         and radii in bucket order, for kernels that query the grid themselves (`query_range`).
         Returns what such a kernel takes, in this order: (n_buckets, 1 / cell_size, bits,
-        starts, entries, sorted_xr)."""
+        starts, entries, sorted_xr). entries[:n] is an ordering of all n particles: the
+        simulated ones in bucket order (starts[n_buckets] of them), then the others, so the
+        particle store can be put in cell order by it (`ParticleStore.permute`)."""
         self._ensure(n)
         inv_cell = 1.0 / cell_size
         _count(x, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts)
-        _prefix_sum(self.counts, self.n_buckets, self.block_sums, self.starts)
+        _prefix_sum(self.counts, self.n_buckets + 1, self.block_sums, self.starts)
         _scatter(self.bucket, self.rank, self.starts, n, self.entries)
-        _sort_buckets(self.starts, self.n_buckets, self.entries)
+        _sort_buckets(self.starts, self.n_buckets + 1, self.entries)
         _gather(x, radius, self.entries, self.starts, self.n_buckets, self.sorted_xr)
         return self.n_buckets, inv_cell, self.bits, self.starts, self.entries, self.sorted_xr
 

@@ -1,7 +1,8 @@
 """The particle store: one array per quantity (structure of arrays), with a capacity that
-grows by doubling. Order is the order of `add` and never changes."""
+grows by doubling. The public order (what `read` returns and `write` takes) is the order of
+`add` and never changes; the storage order may (`permute` puts particles near each other
+in space next to each other in memory), and `ids` says which particle is in which slot."""
 
-from __future__ import annotations
 
 import numpy as np
 import taichi as ti
@@ -19,6 +20,31 @@ STAT_LEFT_DOMAIN = 3
 STAT_NAMES = ("failsafe", "repulsion", "non_finite", "left_domain")
 
 QUANTITIES = ("x", "v", "mass", "radius", "flags")
+
+
+@ti.kernel
+def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
+             mass: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(),
+             clearance: ti.types.ndarray(), ids: ti.types.ndarray(),
+             # outputs: slot k gets what slot order[k] held
+             x2: ti.types.ndarray(), v2: ti.types.ndarray(), mass2: ti.types.ndarray(), radius2: ti.types.ndarray(),
+             flags2: ti.types.ndarray(), clearance2: ti.types.ndarray(), ids2: ti.types.ndarray()):
+    for k in range(n):
+        i = order[k]
+        x2[k] = x[i]
+        v2[k] = v[i]
+        mass2[k] = mass[i]
+        radius2[k] = radius[i]
+        flags2[k] = flags[i]
+        clearance2[k] = clearance[i]
+        ids2[k] = ids[i]
+
+
+def _stored_arrays(capacity: int) -> tuple:
+    """x, v, mass, radius, flags, clearance, ids: every array the store keeps per particle."""
+    return (ti.Vector.ndarray(3, float, shape=capacity), ti.Vector.ndarray(3, float, shape=capacity),
+            ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity),
+            ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity))
 
 
 class ParticleStore:
@@ -39,24 +65,30 @@ class ParticleStore:
         # `clearance_key` (versions of store and collider table at its last launch) holds.
         self.version = 0
         self.clearance_key = None
+        # `edits` counts the changes of the stored arrays from outside the kernels (writes
+        # from the host, growth, permutations): what a step keeps between substeps (the
+        # pair solver's neighbour lists) holds only while it is unchanged.
+        self.edits = 0
         self._allocate(max(int(capacity), 1))
 
     def _allocate(self, capacity: int):
         old = {name: self.read(name) for name in QUANTITIES} if self.count else None
-        self.x = ti.Vector.ndarray(3, float, shape=capacity)
-        self.v = ti.Vector.ndarray(3, float, shape=capacity)
-        self.mass = ti.ndarray(float, shape=capacity)
-        self.radius = ti.ndarray(float, shape=capacity)
-        self.flags = ti.ndarray(ti.i32, shape=capacity)
-        self.clearance = ti.ndarray(float, shape=capacity)
+        # ids: the public index of the particle in each slot
+        (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = _stored_arrays(capacity)
+        self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
+        self._ids_host = None  # host copy of ids[:count] while the order is not the identity
+        self._spare = None  # arrays `permute` writes into (then swapped in)
         self.capacity = capacity
         self.version += 1
-        if old is not None:
+        self.edits += 1
+        if old is not None:  # rewritten in public order: storage order back to the identity
             for name, values in old.items():
                 self._write_range(name, 0, values)
 
     def _write_range(self, name: str, start: int, values: np.ndarray):
+        """Storage slots start.. of one quantity."""
         self.version += 1
+        self.edits += 1
         array = getattr(self, name)
         full = array.to_numpy()
         full[start:start + len(values)] = values
@@ -68,6 +100,9 @@ class ParticleStore:
         if self.count + n > self.capacity:
             self._allocate(max(2 * self.capacity, self.count + n))
         start = self.count
+        if self._ids_host is not None:  # new particles take the next slots, in their order
+            self._write_range("ids", start, np.arange(start, start + n, dtype=np.int32))
+            self._ids_host = np.concatenate([self._ids_host, np.arange(start, start + n, dtype=np.int32)])
         for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
                              ("flags", np.zeros(n, dtype=np.int32))):
             self._write_range(name, start, values)
@@ -86,10 +121,34 @@ class ParticleStore:
         self.clearance_key = (self.version, table.version)
 
     def read(self, name: str) -> np.ndarray:
-        return getattr(self, name).to_numpy()[: self.count].copy()
+        """One quantity of every particle, in public order."""
+        stored = getattr(self, name).to_numpy()[: self.count]
+        if self._ids_host is None:
+            return stored.copy()
+        values = np.empty_like(stored)
+        values[self._ids_host] = stored
+        return values
 
     def write(self, name: str, values: np.ndarray):
+        """One quantity of every particle, given in public order."""
+        if self._ids_host is not None:
+            values = np.asarray(values)[self._ids_host]
         self._write_range(name, 0, values)
+
+    def permute(self, order, n: int):
+        """Reorder the storage: slot k gets the particle of slot order[k] (order: an ndarray
+        whose first n entries are a permutation of 0..n-1, the count). Every stored quantity
+        moves with it, the clearances too (they stay valid); the public order does not change."""
+        if n != self.count:
+            raise ValueError(f"permute: n must be the particle count {self.count}; got {n}")
+        if self._spare is None:
+            self._spare = _stored_arrays(self.capacity)
+        current = (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids)
+        _permute(order, n, *current, *self._spare)
+        (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = self._spare
+        self._spare = current
+        self._ids_host = self.ids.to_numpy()[:n]
+        self.edits += 1
 
     def kernel_args(self, moves: bool = True):
         """The arrays in the order `ParticleArrays` takes them. A kernel given them may move

@@ -93,7 +93,9 @@ class Scene:
         DEM spring-dashpots with the solver's stiffness and damping (reduced mass) and the
         material's friction. Options: iterations (contact passes,
         default 4), projection_iterations (4), relaxation (1.5), margin (0.25 of the largest
-        radius). See tai_coll.solvers.pairs. Returns the settings object."""
+        radius), skin (0: extra reach that lets neighbour lists be kept between substeps),
+        reorder (True: the store kept in the grid's cell order; public order never changes).
+        See tai_coll.solvers.pairs. Returns the settings object."""
         self._check_runtime()
         if not (hasattr(self.solver, "resolve_candidates") or hasattr(self.solver, "kernel_constants")):
             raise TypeError(f"particle collisions need tc.ImpulseSolver or tc.PenaltySolver; "

@@ -43,17 +43,33 @@ TINY = 1e-12
 
 @ti.kernel
 def _predict(x: ti.types.ndarray(), v: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, gravity: vec3,
-             dt: float,
+             dt: float, listed_at: ti.types.ndarray(), reach2: float,
              # outputs
-             x1: ti.types.ndarray(), v1: ti.types.ndarray()):
+             x1: ti.types.ndarray(), v1: ti.types.ndarray(), stale: ti.types.ndarray()):
+    """The candidates, and in stale[0] whether the neighbour lists no longer hold: some
+    candidate moved more than sqrt(reach2) from where the lists saw it (listed_at: x, y, z
+    and 1 for a particle simulated then, 0 for one not), or its status changed since."""
+    stale[0] = 0
     for i in range(n):
         vi = v[i]
         xi = x[i]
-        if flags[i] == P.ACTIVE:
+        active = flags[i] == P.ACTIVE
+        if active:
             vi = vi + dt * gravity
             xi = xi + dt * vi
         v1[i] = vi
         x1[i] = xi
+        seen = listed_at[i]
+        if (active and (xi - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
+            stale[0] = 1
+
+
+@ti.kernel
+def _mark_listed(x1: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
+                 # outputs
+                 listed_at: ti.types.ndarray()):
+    for i in range(n):
+        listed_at[i] = vec4(x1[i], ti.select(flags[i] == P.ACTIVE, 1.0, 0.0))
 
 
 @ti.func
@@ -285,25 +301,45 @@ class ParticleCollisions:
     margin: extra reach of the neighbour lists, as a fraction of the largest radius, so
         contacts created while the passes move particles are still seen (the passes move a
         particle by at most dt times its change of velocity; a contact missed in one substep
-        is found in the next). Larger margins cost time: the grid's cells are 2 + margin
-        radii wide and every listed neighbour is evaluated in every pass.
-    (The penalty variant needs no margin: its forces are evaluated once, at the substep's start.)
+        is found in the next). Larger margins cost time: every listed neighbour is
+        evaluated in every pass.
+    skin: further reach of the lists (a fraction of the largest radius) so that they can be
+        kept from one substep to the next (Verlet lists): they are rebuilt only once some
+        particle's candidate position has moved more than skin / 2 from where the lists saw
+        it (or a particle's status changed, or the store was written), so every pair within
+        the margin is still listed. Pays where every particle is nearly still; where a few
+        keep moving (a pile still settling) the lists are rebuilt anyway and every pass
+        evaluates the longer lists. 0 (default): rebuilt every substep.
+    reorder: before each rebuild of the lists (each DEM substep), put the particle store in
+        the order of the grid's cells (its last sort), so that neighbours lie near each other
+        in memory: the passes read neighbours' data from the cache instead of all over the
+        arrays. The public order (positions(), velocities(), ...) never changes.
+    (The penalty variant needs no margin or skin: its forces are evaluated once, at the
+    substep's start, from the grid, sorted every substep.)
     """
 
     def __init__(self, *, material: Material | None = None, iterations: int = 4, projection_iterations: int = 4,
-                 relaxation: float = 1.5, margin: float = 0.25):
+                 relaxation: float = 1.5, margin: float = 0.25, skin: float = 0.0, reorder: bool = True):
         if material is None:
             material = Material()
         elif not isinstance(material, Material):
             raise TypeError(f"material must be a tc.Material; got {type(material).__name__}")
+        if not isinstance(reorder, (bool, np.bool_)):
+            raise TypeError(f"reorder must be True or False; got {type(reorder).__name__}")
         self.material = material
         self.iterations = validate.integer("iterations", iterations, low=1)
         self.projection_iterations = validate.integer("projection_iterations", projection_iterations, low=0)
         self.relaxation = validate.real("relaxation", relaxation, low=0.0, high=2.0, low_open=True)
         self.margin = validate.real("margin", margin, low=0.0)
+        self.skin = validate.real("skin", skin, low=0.0)
+        self.reorder = bool(reorder)
         self.grid = HashGrid()
         self.capacity = 0
         self.neighbour_overflow = 0
+        self.list_builds = 0  # substeps that built the neighbour lists (the others reused them)
+        self._lists_key = None  # what the lists were built for (see _lists_hold)
+        self._sorted_key = None  # the store's (edits, count) when the grid last sorted it
+        self._latest_counts = None  # the array with the latest per-particle contact counts
 
     def _ensure(self, capacity: int):
         """Work arrays as large as the particle store (so whole-array copies line up)."""
@@ -315,11 +351,25 @@ class ParticleCollisions:
         self.v_start = ti.Vector.ndarray(3, float, shape=capacity)
         self.delta = ti.Vector.ndarray(3, float, shape=capacity)
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
+        self.listed_at = ti.Vector.ndarray(4, float, shape=capacity)
         self.changed = ti.ndarray(ti.i32, shape=1)
+        self._lists_key = None
 
     def _changed(self) -> bool:
         """Whether the last pass had anything to do (a read from the device)."""
         return bool(self.changed.to_numpy()[0])
+
+    def _sort(self, particles, x, cell_size: float):
+        """The grid's counting sort of the store's particles (at positions x)."""
+        query = self.grid.sort(x, particles.radius, particles.flags, particles.count, cell_size)
+        self._sorted_key = (particles.edits, particles.count)
+        return query
+
+    def _reorder(self, particles):
+        """Put the store in the order of the grid's last sort, if it sorted the store as it is
+        (the particles have moved since, by a substep or a few: the order stays coherent)."""
+        if self.reorder and particles.count and self._sorted_key == (particles.edits, particles.count):
+            particles.permute(self.grid.entries, particles.count)
 
     def substep(self, scene, dt: float):
         """One substep of every particle: pairs first, then the scene's solver against colliders.
@@ -333,29 +383,50 @@ class ParticleCollisions:
         particles = scene._particles
         n = particles.count
         self._ensure(particles.capacity)
-        query = self.grid.sort(particles.x, particles.radius, particles.flags, n, 2.0 * scene._max_radius())
+        self._reorder(particles)
+        query = self._sort(particles, particles.x, 2.0 * scene._max_radius())
         m = self.material
         _pair_forces(particles.v, particles.mass, particles.flags, n, *query, dt, *scene.solver.kernel_constants(),
                      m.static_friction, m.friction, m.wet_friction, self.delta)
         scene.solver.advance(scene, dt, 1, force=self.delta)
 
+    def _predict_and_list(self, scene, dt: float, reach: float, skin: float):
+        """Steps 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach
+        of each other at them, kept from earlier substeps while they still hold. Returns the
+        array holding each particle's contact count at the candidates (for the first pass)."""
+        particles = scene._particles
+        n = particles.count
+        key = (particles.edits, n, reach, skin, particles.capacity)
+        rest = (n, vec3(*scene.gravity), dt, self.listed_at, (0.5 * skin) ** 2, self.x1, self.v1, self.changed)
+        if self._lists_key == key and skin > 0.0:
+            _predict(particles.x, particles.v, particles.flags, *rest)
+            if not self._changed():
+                return self._latest_counts
+        self._reorder(particles)  # (swaps the store's arrays)
+        _predict(particles.x, particles.v, particles.flags, *rest)
+        self.grid.build(self.x1, particles.radius, particles.flags, n, 2.0 * scene._max_radius() + reach + skin,
+                        reach + skin)
+        self._sorted_key = (particles.edits, n)
+        _mark_listed(self.x1, particles.flags, n, self.listed_at)
+        self._lists_key = (particles.edits, n, reach, skin, particles.capacity)
+        self.list_builds += 1
+        return self.grid.touching
+
     def _impulse_substep(self, scene, dt: float):
         particles = scene._particles
         n = particles.count
         self._ensure(particles.capacity)
-        x, v, mass, radius, flags = particles.x, particles.v, particles.mass, particles.radius, particles.flags
         r_max = scene._max_radius()
         margin = self.margin * r_max
         m = self.material
         law = (m.restitution, m.friction, m.wet_friction, WET_LAWS["linear"])
-        # 1. predict
-        _predict(x, v, flags, n, vec3(*scene.gravity), dt, self.x1, self.v1)
-        # 2. neighbours of the candidates
-        self.grid.build(self.x1, radius, flags, n, 2.0 * r_max + margin, margin)
+        # 1. predict; 2. neighbours of the candidates
+        contacts = self._predict_and_list(scene, dt, margin, self.skin * r_max)
+        x, v, mass, radius, flags = particles.x, particles.v, particles.mass, particles.radius, particles.flags
         nb, nc = self.grid.neighbours, self.grid.neighbour_count
-        # 3. elastic pass on v(t); the grid counted the contacts at the candidates
+        # 3. elastic pass on v(t), with the contact counts of the candidates
         self.v_start.copy_from(v)
-        contacts, counted = self.grid.touching, self.contacts
+        counted = self.contacts if contacts is not self.contacts else self.grid.touching
         _velocity_pass(self.x1, self.v_start, mass, radius, n, nb, nc, contacts, *law, self.relaxation,
                        self.delta, counted, self.changed)
         _apply_velocity(x, flags, n, dt, self.delta, 1, self.v_start, self.x1, self.v1)
@@ -386,6 +457,7 @@ class ParticleCollisions:
             contacts, counted = counted, contacts
         # 6. colliders last, and the new state
         solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True)
+        self._latest_counts = contacts
         self.neighbour_overflow += self.grid.take_overflow()
 
     def overlap(self, scene) -> dict:
@@ -393,7 +465,7 @@ class ParticleCollisions:
         {"max": ..., "mean": ... over overlapping pairs, "pairs": count}."""
         particles = scene._particles
         n = particles.count
-        query = self.grid.sort(particles.x, particles.radius, particles.flags, n, 2.0 * scene._max_radius())
+        query = self._sort(particles, particles.x, 2.0 * scene._max_radius())
         self._ensure(particles.capacity)
         _overlap_stats(particles.flags, n, *query, self.delta)
         stats = self.delta.to_numpy()[:n]
