@@ -474,13 +474,13 @@ def print_table(rows, compile_info, speedups, machine):
 
 def print_pile_table(rows):
     print()
-    head = f"{'pile (particle collisions)':<26} {'particles':>10} {'dt ms':>5} {'sim s':>5} {'M p-steps/s':>11} " \
+    head = f"{'pile (particle collisions)':<48} {'particles':>10} {'dt ms':>5} {'sim s':>5} {'M p-steps/s':>11} " \
            f"{'median fr.':>10} {'last 1/4':>8} {'sim s/s':>7} {'grid ms':>7} {'B/part.':>7} {'overlap mean/max':>17}"
     print(head)
     print("-" * len(head))
     for r in rows:
         o = r["overlap_end"]
-        print(f"{'taichi ' + r['variant'] + ', ' + r['precision']:<26} {r['particles']:>10,} {r['dt'] * 1e3:>5.2f} "
+        print(f"{'taichi ' + r['variant'] + ', ' + r['precision']:<48} {r['particles']:>10,} {r['dt'] * 1e3:>5.2f} "
               f"{r['simulated_s']:>5.2f} {r['particle_steps_per_s'] / 1e6:>11.2f} "
               f"{r['median_frame_particle_steps_per_s'] / 1e6:>10.2f} "
               f"{r['last_quarter_particle_steps_per_s'] / 1e6:>8.2f} {r['simulated_s_per_wall_s']:>7.4f} "
@@ -490,7 +490,10 @@ def print_pile_table(rows):
           "frame of the last quarter, the densest state reached; sim s/s: simulated seconds per second; "
           "grid: sort + neighbour lists (impulse), sort alone (dem))")
     for r in rows:
-        if r["particles"] == 100_000:
+        if "speedup_over_no_reorder" in r:
+            print(f"pile of {r['particles']:,} added in random order: reordering the store by cell "
+                  f"{r['speedup_over_no_reorder']:.2f}x faster than without (same process, same frames)")
+        elif r["particles"] == 100_000 and not r.get("shuffled"):
             rate = r["particle_steps_per_s"]
             print(f"pile of 100,000, {r['variant']}, over {r['simulated_s']:.2f} s from the drop: "
                   f"{rate / 1e6:.2f} M particle-steps/s (target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
@@ -531,14 +534,18 @@ def main(argv=None):
     parser.add_argument("--pile-seconds-1m", type=float, default=0.06,
                         help="simulated seconds timed from the drop, pile of 1,000,000 (0.06: the fall and first "
                              "impacts)")
-    parser.add_argument("--pile-variants", default="impulse,dem",
-                        help="comma-separated pile variants: impulse (default solver), dem (penalty pairs)")
+    parser.add_argument("--pile-variants", default="impulse,dem,reorder",
+                        help="comma-separated pile variants: impulse (default solver), dem (penalty pairs), "
+                             "reorder (100,000 only: the impulse pile added in random order, the store's "
+                             "reordering by cell off, then on)")
+    parser.add_argument("--pile-seconds-reorder", type=float, default=0.2,
+                        help="simulated seconds timed from the drop for the reorder rows")
     args = parser.parse_args(argv)
     args.pile = args.pile or args.pile_only
     args.pile_variants = [v.strip() for v in args.pile_variants.split(",") if v.strip()]
-    unknown = sorted(set(args.pile_variants) - {"impulse", "dem"})
+    unknown = sorted(set(args.pile_variants) - {"impulse", "dem", "reorder"})
     if unknown or not args.pile_variants:
-        parser.error(f"--pile-variants must list impulse and/or dem; got {unknown or 'nothing'}")
+        parser.error(f"--pile-variants must list some of impulse, dem, reorder; got {unknown or 'nothing'}")
     if args.json is None:
         args.json = str(ROOT / "bench_results" / ("bench_pile.json" if args.pile_only else "bench.json"))
 
@@ -572,15 +579,21 @@ def main(argv=None):
 
     pile_rows = []
     if args.pile:
-        from bench_pile import pile_case
+        from bench_pile import pile_case, reorder_cases
 
         for n in ((100_000,) if args.quick else (100_000, 1_000_000)):
             for variant in args.pile_variants:
-                row = pile_case(tc, n, args.pile_seconds if n <= 100_000 else args.pile_seconds_1m, variant)
-                row.update(precision=args.precision, threads=args.threads)
-                pile_rows.append(row)
-                print(f"  done: pile of {n:,}, {variant} ({row['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s)",
-                      flush=True)
+                if variant == "reorder":
+                    if n > 100_000:
+                        continue
+                    new_rows = reorder_cases(tc, n, min(args.pile_seconds_reorder, args.pile_seconds))
+                else:
+                    new_rows = [pile_case(tc, n, args.pile_seconds if n <= 100_000 else args.pile_seconds_1m, variant)]
+                for row in new_rows:
+                    row.update(precision=args.precision, threads=args.threads)
+                    pile_rows.append(row)
+                    print(f"  done: pile of {n:,}, {row['variant']} "
+                          f"({row['particle_steps_per_s'] / 1e6:.2f} M particle-steps/s)", flush=True)
 
     print_table(rows, compile_info, setup["speedups"], machine)
     if pile_rows:

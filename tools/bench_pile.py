@@ -16,6 +16,9 @@ rates cover the fall, the impacts and, given enough frames, the dense pile:
   lists (impulse), the counting sort alone (dem: its force kernel queries the grid itself);
 - overlap between particles at the end (mean and max, relative to the radius);
 - the bytes per particle of every array the scene and its pair solver hold.
+The reordering of the store by cell (tai_coll.solvers.pairs, on by default) is measured on
+its own by `reorder_cases`: the impulse pile with its particles added in random order,
+without and then with it.
 """
 
 import time
@@ -39,7 +42,10 @@ def pile_positions(n: int, half: float, seed: int = 0) -> np.ndarray:
     return x + rng.uniform(-0.1 * RADIUS, 0.1 * RADIUS, x.shape)
 
 
-def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse"):
+def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", *, shuffled: bool = False,
+               reorder: bool = True):
+    """The pile; shuffled: the particles added in random order (not layer by layer);
+    reorder: the pair solver's reordering of the store by cell (on by default)."""
     if half is None:
         half = max(0.1, 0.5 * np.sqrt(n / 100_000) * 0.5)
     solver = tc.PenaltySolver(hertz=DEM_HERTZ) if variant == "dem" else None
@@ -49,8 +55,11 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse"):
     material = tc.Material(restitution=0.2, friction=0.4)
     for point, normal in walls:
         scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
-    scene.enable_particle_collisions(material=material)
-    scene.add_particles(positions=pile_positions(n, half), radius=RADIUS)
+    scene.enable_particle_collisions(material=material, reorder=reorder)
+    x = pile_positions(n, half)
+    if shuffled:
+        x = np.random.default_rng(1).permutation(x)
+    scene.add_particles(positions=x, radius=RADIUS)
     return scene
 
 
@@ -60,9 +69,10 @@ def state_bytes(scene) -> int:
     pairs = scene._pairs
     particles = scene._particles
     arrays = [particles.x, particles.v, particles.mass, particles.radius, particles.flags, particles.clearance,
-              pairs.delta]
+              particles.ids, pairs.delta]
+    arrays += list(particles._spare or ())  # the second set the store is permuted into (reorder)
     if not hasattr(scene.solver, "kernel_constants"):  # the impulse variant's work arrays
-        arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts]
+        arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts, pairs.listed_at]
     for a in arrays + pairs.grid.arrays():
         total += a.to_numpy().nbytes
     return total
@@ -95,11 +105,12 @@ def grid_build_s(scene) -> float:
     return float(np.median(times))
 
 
-def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse") -> dict:
+def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuffled: bool = False,
+              reorder: bool = True) -> dict:
     import taichi as ti
 
     compile_pile_kernels(tc, variant)
-    scene = pile_scene(tc, n, variant=variant)
+    scene = pile_scene(tc, n, variant=variant, shuffled=shuffled, reorder=reorder)
     frames = int(round(simulated_s / (SUBSTEPS * DT[variant])))
     times = []
     for _ in range(frames):
@@ -113,9 +124,12 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse") -> dict:
     nbytes = state_bytes(scene)
     overlap = scene.particle_overlap()
     v = scene.velocities()
+    label = variant + (f", random order, reorder {'on' if reorder else 'off'}" if shuffled else "")
     return {
-        "case": f"taichi {variant}, pile (particle collisions)",
-        "variant": variant,
+        "case": f"taichi {label}, pile (particle collisions)",
+        "variant": label,
+        "shuffled": shuffled,
+        "reorder": reorder,
         "layout": "pile",
         "particles": n,
         "dt": DT[variant],
@@ -134,3 +148,11 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse") -> dict:
         "top_end_m": float(scene.positions()[:, 1].max()),
         "stats": scene.stats(),
     }
+
+
+def reorder_cases(tc, n: int, simulated_s: float) -> list:
+    """The impulse pile with particles added in random order: reordering off (the baseline),
+    then on; the second row carries the speed-up."""
+    rows = [pile_case(tc, n, simulated_s, "impulse", shuffled=True, reorder=reorder) for reorder in (False, True)]
+    rows[1]["speedup_over_no_reorder"] = rows[1]["particle_steps_per_s"] / rows[0]["particle_steps_per_s"]
+    return rows
