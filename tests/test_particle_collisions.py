@@ -357,9 +357,9 @@ def test_reordering_keeps_the_public_order():
         scene.add_particles(positions=x, mass=mass, radius=radius)
         scene.step(20)
         runs[reorder] = scene
-    ids = runs[True]._particles._ids_host
+    ids = runs[True]._particles._public()
     assert ids is not None and not np.array_equal(ids, np.arange(n))  # the store was permuted
-    assert runs[False]._particles._ids_host is None
+    assert runs[False]._particles._public() is None
     assert np.array_equal(runs[True].masses(), runs[False].masses())
     assert np.array_equal(runs[True].radii(), runs[False].radii())
     # the same physics: only the order of each particle's sum over neighbours differs
@@ -399,7 +399,7 @@ def test_store_permute_moves_every_quantity():
     for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius)):
         assert np.array_equal(store.read(name), values), name
     store.add(x[:30], v[:30], mass[:30], radius[:30])  # grows past the capacity: order reset
-    assert store._ids_host is None
+    assert store._public() is None
     assert np.array_equal(store.read("x"), np.concatenate([x, x[:30]]))
     with pytest.raises(ValueError, match="n must be"):
         store.permute(perm, n - 1)

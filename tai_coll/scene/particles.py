@@ -76,7 +76,8 @@ class ParticleStore:
         # ids: the public index of the particle in each slot
         (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = _stored_arrays(capacity)
         self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
-        self._ids_host = None  # host copy of ids[:count] while the order is not the identity
+        self.permuted = False  # whether the storage order may differ from the public order
+        self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
         self._spare = None  # arrays `permute` writes into (then swapped in)
         self.capacity = capacity
         self.version += 1
@@ -100,9 +101,9 @@ class ParticleStore:
         if self.count + n > self.capacity:
             self._allocate(max(2 * self.capacity, self.count + n))
         start = self.count
-        if self._ids_host is not None:  # new particles take the next slots, in their order
+        if self.permuted:  # new particles take the next slots, in their order
             self._write_range("ids", start, np.arange(start, start + n, dtype=np.int32))
-            self._ids_host = np.concatenate([self._ids_host, np.arange(start, start + n, dtype=np.int32)])
+            self._ids_host = None
         for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
                              ("flags", np.zeros(n, dtype=np.int32))):
             self._write_range(name, start, values)
@@ -120,19 +121,29 @@ class ParticleStore:
         """A kernel has just written the clearances for the particles as it left them."""
         self.clearance_key = (self.version, table.version)
 
+    def _public(self) -> np.ndarray | None:
+        """The public index of the particle in each slot (None: the identity)."""
+        if not self.permuted:
+            return None
+        if self._ids_host is None:
+            self._ids_host = self.ids.to_numpy()[: self.count]
+        return self._ids_host
+
     def read(self, name: str) -> np.ndarray:
         """One quantity of every particle, in public order."""
         stored = getattr(self, name).to_numpy()[: self.count]
-        if self._ids_host is None:
+        ids = self._public()
+        if ids is None:
             return stored.copy()
         values = np.empty_like(stored)
-        values[self._ids_host] = stored
+        values[ids] = stored
         return values
 
     def write(self, name: str, values: np.ndarray):
         """One quantity of every particle, given in public order."""
-        if self._ids_host is not None:
-            values = np.asarray(values)[self._ids_host]
+        ids = self._public()
+        if ids is not None:
+            values = np.asarray(values)[ids]
         self._write_range(name, 0, values)
 
     def permute(self, order, n: int):
@@ -147,7 +158,8 @@ class ParticleStore:
         _permute(order, n, *current, *self._spare)
         (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = self._spare
         self._spare = current
-        self._ids_host = self.ids.to_numpy()[:n]
+        self.permuted = True
+        self._ids_host = None
         self.edits += 1
 
     def kernel_args(self, moves: bool = True):

@@ -39,6 +39,9 @@ ivec3 = ti.math.ivec3
 vec4 = ti.math.vec4
 
 TINY = 1e-12
+# Substeps between reorderings of the store by cell: particles move little in a few
+# substeps, so the order stays coherent, and the permutation's cost is spread.
+REORDER_INTERVAL = 8
 
 
 @ti.kernel
@@ -310,7 +313,8 @@ class ParticleCollisions:
         the margin is still listed. Pays where every particle is nearly still; where a few
         keep moving (a pile still settling) the lists are rebuilt anyway and every pass
         evaluates the longer lists. 0 (default): rebuilt every substep.
-    reorder: before each rebuild of the lists (each DEM substep), put the particle store in
+    reorder: before a rebuild of the lists (a DEM substep), at most every REORDER_INTERVAL
+        substeps, put the particle store in
         the order of the grid's cells (its last sort), so that neighbours lie near each other
         in memory: the passes read neighbours' data from the cache instead of all over the
         arrays. The public order (positions(), velocities(), ...) never changes.
@@ -337,7 +341,8 @@ class ParticleCollisions:
         self.capacity = 0
         self.neighbour_overflow = 0
         self.list_builds = 0  # substeps that built the neighbour lists (the others reused them)
-        self._lists_key = None  # what the lists were built for (see _lists_hold)
+        self._lists_key = None  # what the lists were built for (see _predict_and_list)
+        self._since_reorder = REORDER_INTERVAL  # substeps since the store was last reordered
         self._sorted_key = None  # the store's (edits, count) when the grid last sorted it
         self._latest_counts = None  # the array with the latest per-particle contact counts
 
@@ -367,9 +372,13 @@ class ParticleCollisions:
 
     def _reorder(self, particles):
         """Put the store in the order of the grid's last sort, if it sorted the store as it is
-        (the particles have moved since, by a substep or a few: the order stays coherent)."""
-        if self.reorder and particles.count and self._sorted_key == (particles.edits, particles.count):
+        (the particles have moved since, by a substep or a few: the order stays coherent),
+        at most once every REORDER_INTERVAL substeps."""
+        self._since_reorder += 1
+        if (self.reorder and particles.count and self._since_reorder >= REORDER_INTERVAL
+                and self._sorted_key == (particles.edits, particles.count)):
             particles.permute(self.grid.entries, particles.count)
+            self._since_reorder = 0
 
     def substep(self, scene, dt: float):
         """One substep of every particle: pairs first, then the scene's solver against colliders.
@@ -407,8 +416,9 @@ class ParticleCollisions:
         self.grid.build(self.x1, particles.radius, particles.flags, n, 2.0 * scene._max_radius() + reach + skin,
                         reach + skin)
         self._sorted_key = (particles.edits, n)
-        _mark_listed(self.x1, particles.flags, n, self.listed_at)
-        self._lists_key = (particles.edits, n, reach, skin, particles.capacity)
+        if skin > 0.0:
+            _mark_listed(self.x1, particles.flags, n, self.listed_at)
+        self._lists_key = (particles.edits,) + key[1:]
         self.list_builds += 1
         return self.grid.touching
 
