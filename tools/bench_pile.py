@@ -72,7 +72,8 @@ def state_bytes(scene) -> int:
               particles.ids, pairs.delta]
     arrays += list(particles._spare or ())  # the second set the store is permuted into (reorder)
     if not hasattr(scene.solver, "kernel_constants"):  # the impulse variant's work arrays
-        arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts, pairs.listed_at]
+        arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts]
+        arrays += [pairs.listed_at] if pairs.listed_at is not None else []  # with a skin only
     for a in arrays + pairs.grid.arrays():
         total += a.to_numpy().nbytes
     return total

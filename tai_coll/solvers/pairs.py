@@ -46,12 +46,12 @@ REORDER_INTERVAL = 8
 
 @ti.kernel
 def _predict(x: ti.types.ndarray(), v: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, gravity: vec3,
-             dt: float, listed_at: ti.types.ndarray(), reach2: float,
+             dt: float, check: ti.i32, listed_at: ti.types.ndarray(), reach2: float,
              # outputs
              x1: ti.types.ndarray(), v1: ti.types.ndarray(), stale: ti.types.ndarray()):
-    """The candidates, and in stale[0] whether the neighbour lists no longer hold: some
-    candidate moved more than sqrt(reach2) from where the lists saw it (listed_at: x, y, z
-    and 1 for a particle simulated then, 0 for one not), or its status changed since."""
+    """The candidates, and (if check) in stale[0] whether the neighbour lists no longer hold:
+    some candidate moved more than sqrt(reach2) from where the lists saw it (listed_at: x, y,
+    z and 1 for a particle simulated then, 0 for one not), or its status changed since."""
     stale[0] = 0
     for i in range(n):
         vi = v[i]
@@ -62,9 +62,10 @@ def _predict(x: ti.types.ndarray(), v: ti.types.ndarray(), flags: ti.types.ndarr
             xi = xi + dt * vi
         v1[i] = vi
         x1[i] = xi
-        seen = listed_at[i]
-        if (active and (xi - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
-            stale[0] = 1
+        if check:
+            seen = listed_at[i]
+            if (active and (xi - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
+                stale[0] = 1
 
 
 @ti.kernel
@@ -356,7 +357,8 @@ class ParticleCollisions:
         self.v_start = ti.Vector.ndarray(3, float, shape=capacity)
         self.delta = ti.Vector.ndarray(3, float, shape=capacity)
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
-        self.listed_at = ti.Vector.ndarray(4, float, shape=capacity)
+        self.listed_at = None  # allocated when a skin keeps the lists (see _predict_and_list)
+        self._stand_in = ti.Vector.ndarray(4, float, shape=1)  # for listed_at without a skin
         self.changed = ti.ndarray(ti.i32, shape=1)
         self._lists_key = None
 
@@ -406,8 +408,13 @@ class ParticleCollisions:
         particles = scene._particles
         n = particles.count
         key = (particles.edits, n, reach, skin, particles.capacity)
-        rest = (n, vec3(*scene.gravity), dt, self.listed_at, (0.5 * skin) ** 2, self.x1, self.v1, self.changed)
-        if self._lists_key == key and skin > 0.0:
+        keep = skin > 0.0
+        if keep and self.listed_at is None:
+            self.listed_at = ti.Vector.ndarray(4, float, shape=self.capacity)
+        # without a skin the check is off and its array never read (a one-element stand-in)
+        listed_at = self.listed_at if keep else self._stand_in
+        rest = (n, vec3(*scene.gravity), dt, int(keep), listed_at, (0.5 * skin) ** 2, self.x1, self.v1, self.changed)
+        if self._lists_key == key and keep:
             _predict(particles.x, particles.v, particles.flags, *rest)
             if not self._changed():
                 return self._latest_counts
@@ -416,7 +423,7 @@ class ParticleCollisions:
         self.grid.build(self.x1, particles.radius, particles.flags, n, 2.0 * scene._max_radius() + reach + skin,
                         reach + skin)
         self._sorted_key = (particles.edits, n)
-        if skin > 0.0:
+        if keep:
             _mark_listed(self.x1, particles.flags, n, self.listed_at)
         self._lists_key = (particles.edits,) + key[1:]
         self.list_builds += 1
