@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-from .triangles import closest_on_triangle
+from .triangles import closest_on_triangle, edge_function
 
 vec3 = ti.math.vec3
 
@@ -294,25 +294,6 @@ def refine_from_neighbours(verts: ti.types.ndarray(), faces: ti.types.ndarray(),
 
 
 # ------------------------------------------------------------------------ 4. sign
-@ti.func
-def edge_function(ay, az, by, bz, py, pz):
-    """Twice the signed area of (a, b, p) in the (y, z) plane, and its sign with simulation
-    of simplicity for p on the line (p taken at (y + eps, z + eps^2)). Computed from the
-    edge's lexicographically smaller end, so the two triangles sharing an edge get exactly
-    opposite values and a row through the edge is counted in exactly one of them."""
-    flip = 1.0
-    if ay > by or (ay == by and az > bz):
-        ay, az, by, bz = by, bz, ay, az
-        flip = -1.0
-    e = (by - ay) * (pz - az) - (bz - az) * (py - ay)
-    sign = e
-    if e == 0.0:
-        sign = -(bz - az)
-        if sign == 0.0:
-            sign = by - ay
-    return flip * e, flip * sign
-
-
 @ti.kernel
 def count_crossings(tri_verts: ti.types.ndarray(), weight: ti.types.ndarray(dtype=ti.i32, ndim=1), origin: vec3,
                     h: float, nx: ti.i32, ny: ti.i32, nz: ti.i32, parity: ti.i32,

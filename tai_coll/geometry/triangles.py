@@ -195,17 +195,37 @@ def swept_sphere_triangle(x0: vec3, d: vec3, a: vec3, b: vec3, c: vec3, R):
 
 
 @ti.func
+def edge_function(ay, az, by, bz, py, pz):
+    """Twice the signed area of (a, b, p) in the (y, z) plane, and its sign with simulation
+    of simplicity for p on the line (p taken at (y + eps, z + eps^2)). Computed from the
+    edge's lexicographically smaller end, so the two triangles sharing an edge get exactly
+    opposite values and a row through the edge is counted in exactly one of them."""
+    flip = 1.0
+    if ay > by or (ay == by and az > bz):
+        ay, az, by, bz = by, bz, ay, az
+        flip = -1.0
+    e = (by - ay) * (pz - az) - (bz - az) * (py - ay)
+    sign = e
+    if e == 0.0:
+        sign = -(bz - az)
+        if sign == 0.0:
+            sign = by - ay
+    return flip * e, flip * sign
+
+
+@ti.func
 def ray_x_crossing(q: vec3, a: vec3, b: vec3, c: vec3):
     """Whether the line q + s (1, 0, 0) passes through triangle abc: (passes, x where it
     does); the ray toward +x crosses it when that x > q.x, the ray toward -x when x < q.x.
 
     Decided on the yz shadow by the edge functions e(p0, p1) = (p0 - q) x (p1 - q) (yz
     components) of the directed edges ab, bc, ca: inside when all three have one sign.
-    Each is computed so that swapping an edge's ends negates it exactly, and a zero is
-    broken by moving q by (eps, eps^2) in (y, z) (simulation of simplicity): the sign of
-    p0.z - p1.z, then of p1.y - p0.y; an edge that is a point in yz stays 0 and never
-    counts. The hit's x interpolates the vertices with the edge functions as barycentric
-    weights (each weighs the vertex opposite its edge), so it stays in the triangle's x range."""
+    Each is `edge_function` of the edge: exactly negated when the edge's ends swap (also
+    where the compiler fuses a multiply and an add, as CUDA code does), a zero broken by
+    moving q by (eps, eps^2) in (y, z) (simulation of simplicity); an edge that is a point in
+    yz stays 0 and never counts. The hit's x interpolates the vertices with the edge
+    functions as barycentric weights (each weighs the vertex opposite its edge), so it stays
+    in the triangle's x range."""
     positive = 0
     negative = 0
     weighted = 0.0
@@ -216,12 +236,7 @@ def ray_x_crossing(q: vec3, a: vec3, b: vec3, c: vec3):
             p0, p1, opposite = b, c, a
         elif k == 2:
             p0, p1, opposite = c, a, b
-        e = (p0.y - q.y) * (p1.z - q.z) - (p0.z - q.z) * (p1.y - q.y)
-        key = e
-        if key == 0.0:
-            key = p0.z - p1.z
-            if key == 0.0:
-                key = p1.y - p0.y
+        e, key = edge_function(p0.y, p0.z, p1.y, p1.z, q.y, q.z)
         if key > 0.0:
             positive += 1
         elif key < 0.0:
