@@ -145,6 +145,34 @@ def test_particle_collisions_need_a_material():
         scene.enable_particle_collisions(iterations=0)
 
 
+def test_full_neighbour_lists_are_warned_about_once():
+    # One particle ten times larger stretches everyone's reach (margin x the largest radius):
+    # a cluster of small ones on a 1.05 mm lattice sees about 150 others within reach.
+    import warnings
+
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=2)
+    pairs = scene.enable_particle_collisions()
+    g = 0.0105 * np.arange(8)
+    X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
+    scene.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=0.005)
+    scene.add_particles(positions=[[5.0, 0.0, 0.0]], radius=0.1)
+    with pytest.warns(RuntimeWarning, match=r"neighbour lists were full .* more than 48 others"):
+        scene.step()
+    dropped = pairs.neighbour_overflow
+    assert dropped > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene.step()  # once per scene
+    assert pairs.neighbour_overflow > dropped
+    # radii of one size: no list is full, nothing to warn about
+    calm = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=2)
+    calm.enable_particle_collisions()
+    calm.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=0.005)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        calm.step()
+
+
 def dem_scene(**solver):
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=2e-5, substeps=10, solver=tc.PenaltySolver(**solver))
     scene.enable_particle_collisions(material=tc.Material(friction=0.0))

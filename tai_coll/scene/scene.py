@@ -9,6 +9,7 @@ import numpy as np
 from .. import runtime, validate
 from ..errors import SimulationError
 from ..geometry.colliders import Collider
+from ..neighbors.hash_grid import NEIGHBOUR_CAPACITY
 from ..materials import Material
 from ..response.repulsion import RepulsionField
 from ..solvers.impulse import ImpulseSolver
@@ -45,6 +46,7 @@ class Scene:
         self._substep_count = 0
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
+        self._warned_dropped = False  # whether full neighbour lists were warned about (once)
 
     # ---------------------------------------------------------------- building
     def add_collider(self, collider: Collider, *, material: Material | None = None, velocity=None,
@@ -103,6 +105,7 @@ class Scene:
         from ..solvers.pairs import ParticleCollisions
 
         self._pairs = ParticleCollisions(material=material, **options)
+        self._warned_dropped = False
         return self._pairs
 
     def particle_overlap(self) -> dict:
@@ -168,6 +171,16 @@ class Scene:
                 f"state (indices {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}) at t = {self.time:.6g} s. "
                 f"Check their velocities and the colliders' motion; a smaller dt (now {self.dt:g} s) may help"
                 + (f": {advice}." if advice else "."))
+        if self._pairs is not None and not self._warned_dropped:
+            dropped = self._pairs.neighbour_overflow
+            if dropped:
+                self._warned_dropped = True
+                warnings.warn(
+                    f"neighbour lists were full by t = {self.time:.6g} s: {dropped} neighbour(s) of particles with "
+                    f"more than {NEIGHBOUR_CAPACITY} others within reach were left out, and contacts with them "
+                    "missed (the running count: neighbour_overflow of what enable_particle_collisions returned). "
+                    "The lists reach r_i + r_j + margin * the largest radius: a smaller margin, or radii closer "
+                    "to each other, keep them short", RuntimeWarning, stacklevel=3)
         if fresh["left_domain"]:
             warnings.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
                           f"frozen ({totals['left_domain']} in all); see Scene.status()", RuntimeWarning,

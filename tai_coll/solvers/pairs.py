@@ -340,7 +340,6 @@ class ParticleCollisions:
         self.reorder = bool(reorder)
         self.grid = HashGrid()
         self.capacity = 0
-        self.neighbour_overflow = 0
         self.list_builds = 0  # substeps that built the neighbour lists (the others reused them)
         self._lists_key = None  # what the lists were built for (see _predict_and_list)
         self._since_reorder = REORDER_INTERVAL  # substeps since the store was last reordered
@@ -364,7 +363,14 @@ class ParticleCollisions:
 
     def _changed(self) -> bool:
         """Whether the last pass had anything to do (a read from the device)."""
-        return bool(self.changed.to_numpy()[0])
+        return bool(self.changed[0])
+
+    @property
+    def neighbour_overflow(self) -> int:
+        """Neighbours left out of full lists since the start (a read from the device); more
+        than NEIGHBOUR_CAPACITY particles within a particle's reach means particles far
+        smaller than the largest, or a pile crushed far beyond its radii."""
+        return int(self.grid.overflow[0])
 
     def _sort(self, particles, x, cell_size: float):
         """The grid's counting sort of the store's particles (at positions x)."""
@@ -475,7 +481,6 @@ class ParticleCollisions:
         # 6. colliders last, and the new state
         solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = contacts
-        self.neighbour_overflow += self.grid.take_overflow()
 
     def overlap(self, scene) -> dict:
         """Overlap between particles now, relative to the smaller radius of each pair:
