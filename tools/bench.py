@@ -37,6 +37,7 @@ import argparse
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -162,6 +163,11 @@ def machine_info(args) -> dict:
             mem = int(f.readline().split()[1]) * 1024
     except OSError:
         pass
+    gpu = None
+    if args.arch != "cpu" and shutil.which("nvidia-smi"):
+        query = subprocess.run(["nvidia-smi", "--query-gpu=name,driver_version", "--format=csv,noheader"],
+                               capture_output=True, text=True)
+        gpu = query.stdout.strip() or None
     return {
         "cpu_model": cpu,
         "logical_cores": os.cpu_count(),
@@ -173,7 +179,8 @@ def machine_info(args) -> dict:
         "taichi": ".".join(str(p) for p in ti.__version__),
         "blas_threadpools": blas,
         "arch_requested": args.arch,
-        "threads": args.threads,
+        "gpu": gpu,
+        "threads": args.threads if args.arch == "cpu" else None,
     }
 
 
@@ -436,6 +443,8 @@ def print_table(rows, compile_info, speedups, machine):
     print(f"machine: {machine['cpu_model']}, {machine['usable_cores']} usable cores, {machine['os']}")
     print(f"python {machine['python']}, numpy {machine['numpy']}, taichi {machine['taichi']}, "
           f"arch {machine['arch_requested']}, threads {machine['threads']}")
+    if machine.get("gpu"):
+        print(f"gpu: {machine['gpu']}")
     print()
     head = f"{'case':<30} {'prec':>4} {'thr':>3} {'particles':>10} {'frames':>6} {'median frame s':>14} " \
            f"{'Mparticle-steps/s':>18} {'state B/p':>9} {'in contact':>10}"

@@ -42,12 +42,17 @@ def pile_positions(n: int, half: float, seed: int = 0) -> np.ndarray:
     return x + rng.uniform(-0.1 * RADIUS, 0.1 * RADIUS, x.shape)
 
 
+def pile_half(n: int) -> float:
+    """Half the box's width for n particles: the box grows with n, the depth stays ~54 layers."""
+    return float(max(0.1, 0.5 * np.sqrt(n / 100_000) * 0.5))
+
+
 def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", *, shuffled: bool = False,
                reorder: bool = True):
     """The pile; shuffled: the particles added in random order (not layer by layer);
     reorder: the pair solver's reordering of the store by cell (on by default)."""
     if half is None:
-        half = max(0.1, 0.5 * np.sqrt(n / 100_000) * 0.5)
+        half = pile_half(n)
     solver = tc.PenaltySolver(hertz=DEM_HERTZ) if variant == "dem" else None
     scene = tc.Scene(dt=DT[variant], substeps=SUBSTEPS, solver=solver)
     walls = [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),

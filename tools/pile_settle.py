@@ -1,0 +1,102 @@
+"""Does the pile come to rest? The benchmark pile (tools/bench_pile.py: particles of radius
+5 mm dropped on a jittered lattice into a box of five planes, about 54 layers deep) stepped
+for a while, its state measured every `--every` simulated seconds:
+
+- kinetic energy per unit mass (J/kg, the mean of v^2 / 2), speed percentiles (p50, p99, max);
+- overlap between particles (mean over touching pairs, and max, relative to the radius);
+- the height of the top particle and of the centre of mass (a pile that creeps sinks);
+- particles outside the box (should stay 0) and the wall time so far.
+
+Prints one line per measurement and writes them all as JSON (default
+bench_results/pile_settle.json), with the machine. Examples:
+
+    python tools/pile_settle.py --particles 100000 --seconds 1.5
+    python tools/pile_settle.py --particles 1000000 --seconds 1.5 --variant impulse
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import bench_pile  # noqa: E402
+from bench import machine_info, write_json  # noqa: E402
+
+
+def measure(scene, half: float, wall_s: float) -> dict:
+    x, v = scene.positions(), scene.velocities()
+    speed = np.linalg.norm(v, axis=1)
+    overlap = scene.particle_overlap()
+    outside = (np.abs(x[:, [0, 2]]).max(axis=1) > half + 1e-6) | (x[:, 1] < -1e-6)
+    return {
+        "t_s": scene.time,
+        "kinetic_energy_j_per_kg": float(0.5 * np.mean(speed.astype(np.float64) ** 2)),
+        "speed_p50_m_s": float(np.median(speed)),
+        "speed_p99_m_s": float(np.percentile(speed, 99)),
+        "speed_max_m_s": float(speed.max()),
+        "overlap_mean": overlap["mean"],
+        "overlap_max": overlap["max"],
+        "top_m": float(x[:, 1].max()),
+        "centre_of_mass_height_m": float(x[:, 1].mean()),
+        "outside": int(outside.sum()),
+        "wall_s": wall_s,
+    }
+
+
+def print_row(row: dict) -> None:
+    print(f"t {row['t_s']:5.2f} s  KE {row['kinetic_energy_j_per_kg']:8.2e} J/kg  speed p50 "
+          f"{row['speed_p50_m_s'] * 1e3:6.1f} p99 {row['speed_p99_m_s'] * 1e3:6.1f} max "
+          f"{row['speed_max_m_s'] * 1e3:7.0f} mm/s  overlap {100 * row['overlap_mean']:4.1f} % / "
+          f"{100 * row['overlap_max']:5.1f} %  top {row['top_m']:.4f} m  centre {row['centre_of_mass_height_m']:.4f} m"
+          f"  outside {row['outside']}  wall {row['wall_s']:6.0f} s", flush=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--particles", type=int, default=100_000)
+    parser.add_argument("--seconds", type=float, default=1.5, help="simulated seconds from the drop")
+    parser.add_argument("--every", type=float, default=0.25, help="simulated seconds between measurements")
+    parser.add_argument("--variant", choices=("impulse", "dem"), default="impulse")
+    parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
+    parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
+    parser.add_argument("--json", default="bench_results/pile_settle.json")
+    args = parser.parse_args(argv)
+    if args.particles < 1:
+        parser.error("--particles must be >= 1")
+    if args.seconds <= 0 or args.every <= 0:
+        parser.error("--seconds and --every must be > 0")
+
+    import tai_coll as tc
+
+    tc.init(arch=args.arch, precision="f32", threads=args.threads if args.arch == "cpu" else None)
+    scene = bench_pile.pile_scene(tc, args.particles, variant=args.variant)
+    half = bench_pile.pile_half(args.particles)
+    frame = bench_pile.SUBSTEPS * bench_pile.DT[args.variant]
+    per = max(1, int(round(args.every / frame)))
+    total = max(1, int(round(args.seconds / frame)))
+    print(f"pile of {args.particles:,}, {args.variant}, {scene.substeps} substeps of {scene.dt * 1e3:g} ms per "
+          f"frame, measured every {per * frame:g} s", flush=True)
+    rows = []
+    start = time.perf_counter()
+    done = 0
+    while done < total:
+        step = min(per, total - done)
+        scene.step(step)
+        done += step
+        rows.append(measure(scene, half, time.perf_counter() - start))
+        print_row(rows[-1])
+    report = {"machine": machine_info(args), "particles": args.particles, "variant": args.variant,
+              "dt": scene.dt, "substeps": scene.substeps, "rows": rows}
+    print(f"wrote {write_json(Path(args.json), report)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
