@@ -97,15 +97,22 @@ def pair_share(contacts: ti.template(), i, j, relaxation):
 
 
 @ti.kernel
-def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.types.ndarray(),
-                   radius: ti.types.ndarray(), n: ti.i32, neighbours: ti.types.ndarray(),
-                   neighbour_count: ti.types.ndarray(), contacts: ti.types.ndarray(), restitution: float,
-                   friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
+def _velocity_pass(x: ti.types.ndarray(), flags: ti.types.ndarray(), x1: ti.types.ndarray(),
+                   v_test: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(), n: ti.i32,
+                   neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(), contacts: ti.types.ndarray(),
+                   restitution: float, friction: float, wet_friction: float, wet_law: ti.template(),
+                   relaxation: float, dt: float, elastic: ti.i32,
                    # outputs
-                   dv: ti.types.ndarray(), contacts_now: ti.types.ndarray(), changed: ti.types.ndarray()):
-    """dv_i = sum over overlapping neighbours j of particle i's share of the pair impulse;
-    also counts those neighbours (the shares of the next pass), and in changed[0] the
-    particles with an approaching contact (0: the pass did nothing)."""
+                   dv: ti.types.ndarray(), contacts_now: ti.types.ndarray(), changed: ti.types.ndarray(),
+                   # in-out
+                   v_start: ti.types.ndarray(), v1: ti.types.ndarray()):
+    """One velocity pass, then its result applied, in one launch (two parallel loops, the
+    second after the first). dv_i = sum over overlapping neighbours j of particle i's share
+    of the pair impulse; the pass also counts those neighbours (the shares of the next pass),
+    and in changed[0] the particles with an approaching contact (0: the pass did nothing,
+    and nothing is applied). Applied: v1 += dv; elastic (the law acted on v(t) = v_test =
+    v_start): v_start += dv and x1 += dt dv; contact: x1 = x + dt v1, re-integrated from the
+    start."""
     changed[0] = 0
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
@@ -136,15 +143,8 @@ def _velocity_pass(x1: ti.types.ndarray(), v_test: ti.types.ndarray(), mass: ti.
         contacts_now[i] = count
         if approaching > 0 and changed[0] == 0:
             changed[0] = 1  # read first: a shared line, written once, not an atomic per particle
-
-
-@ti.kernel
-def _apply_velocity(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, dt: float,
-                    dv: ti.types.ndarray(), elastic: ti.i32,
-                    # in-out
-                    v_start: ti.types.ndarray(), x1: ti.types.ndarray(), v1: ti.types.ndarray()):
     for i in range(n):
-        if flags[i] == P.ACTIVE:
+        if changed[0] != 0 and flags[i] == P.ACTIVE:
             v1[i] += dv[i]
             if elastic:
                 v_start[i] += dv[i]  # the elastic law acted on v(t): x1 += dt dv
@@ -154,14 +154,20 @@ def _apply_velocity(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
 
 
 @ti.kernel
-def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(), n: ti.i32,
-                     neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
-                     contacts: ti.types.ndarray(), relaxation: float,
+def _projection_pass(flags: ti.types.ndarray(), x1: ti.types.ndarray(), mass: ti.types.ndarray(),
+                     radius: ti.types.ndarray(), n: ti.i32, neighbours: ti.types.ndarray(),
+                     neighbour_count: ti.types.ndarray(), contacts: ti.types.ndarray(), relaxation: float, dt: float,
                      # outputs
-                     dx: ti.types.ndarray(), contacts_now: ti.types.ndarray(), changed: ti.types.ndarray()):
-    """dx_i = sum over overlapping neighbours j of particle i's share of moving the pair
-    apart, split by inverse mass; counts as in _velocity_pass; changed[0]: particles with an
-    overlap (0: nothing left to project)."""
+                     dx: ti.types.ndarray(), contacts_now: ti.types.ndarray(), changed: ti.types.ndarray(),
+                     # in-out
+                     v1: ti.types.ndarray()):
+    """One projection pass, then its result applied, in one launch. dx_i = sum over
+    overlapping neighbours j of particle i's share of moving the pair apart, split by
+    inverse mass; counts as in _velocity_pass; changed[0]: particles with an overlap (0:
+    nothing left to project). Applied: x1 += dx, and the velocity follows the position
+    (as in position-based dynamics: a pile held apart by projection is at rest, not moving
+    into its neighbours), v1 += dx / dt."""
+    # the positions a pass reads are those before it: dx is applied in a second loop
     changed[0] = 0
     for i in range(n):
         acc = vec3(0.0, 0.0, 0.0)
@@ -184,17 +190,9 @@ def _projection_pass(x1: ti.types.ndarray(), mass: ti.types.ndarray(), radius: t
         contacts_now[i] = count
         if count > 0 and changed[0] == 0:
             changed[0] = 1
-
-
-@ti.kernel
-def _apply_position(flags: ti.types.ndarray(), n: ti.i32, dx: ti.types.ndarray(), dt: float,
-                    # in-out
-                    x1: ti.types.ndarray(), v1: ti.types.ndarray()):
     for i in range(n):
-        if flags[i] == P.ACTIVE:
+        if changed[0] != 0 and flags[i] == P.ACTIVE:
             x1[i] += dx[i]
-            # The velocity follows the position (as in position-based dynamics): a pile held
-            # apart by projection is at rest, not moving into its neighbours.
             v1[i] += dx[i] / dt
 
 
@@ -450,9 +448,8 @@ class ParticleCollisions:
         # 3. elastic pass on v(t), with the contact counts of the candidates
         self.v_start.copy_from(v)
         counted = self.contacts if contacts is not self.contacts else self.grid.touching
-        _velocity_pass(self.x1, self.v_start, mass, radius, n, nb, nc, contacts, *law, self.relaxation,
-                       self.delta, counted, self.changed)
-        _apply_velocity(x, flags, n, dt, self.delta, 1, self.v_start, self.x1, self.v1)
+        _velocity_pass(x, flags, self.x1, self.v_start, mass, radius, n, nb, nc, contacts, *law, self.relaxation,
+                       dt, 1, self.delta, counted, self.changed, self.v_start, self.v1)
         contacts, counted = counted, contacts
         #    ... and the colliders' own scheme (its elastic pass included) on the candidates
         solver = scene.solver
@@ -463,20 +460,18 @@ class ParticleCollisions:
         #    likewise a projection pass that finds no overlap.
         contact_law = (0.0,) + law[1:]
         for _ in range(self.iterations):
-            _velocity_pass(self.x1, self.v1, mass, radius, n, nb, nc, contacts, *contact_law,
-                           self.relaxation, self.delta, counted, self.changed)
+            _velocity_pass(x, flags, self.x1, self.v1, mass, radius, n, nb, nc, contacts, *contact_law,
+                           self.relaxation, dt, 0, self.delta, counted, self.changed, self.v_start, self.v1)
             if not self._changed():
                 break
-            _apply_velocity(x, flags, n, dt, self.delta, 0, self.v_start, self.x1, self.v1)
             contacts, counted = counted, contacts
             solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True, store_state=False)
         # 5. projection passes on positions
         for _ in range(self.projection_iterations):
-            _projection_pass(self.x1, mass, radius, n, nb, nc, contacts, self.relaxation, self.delta, counted,
-                             self.changed)
+            _projection_pass(flags, self.x1, mass, radius, n, nb, nc, contacts, self.relaxation, dt, self.delta,
+                             counted, self.changed, self.v1)
             if not self._changed():
                 break
-            _apply_position(flags, n, self.delta, dt, self.x1, self.v1)
             contacts, counted = counted, contacts
         # 6. colliders last, and the new state
         solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True)
