@@ -41,11 +41,10 @@ def bucket_of(cell: ivec3, bits: ivec3) -> ti.i32:
     return (cell.x & mask.x) | ((cell.y & mask.y) << bits.x) | ((cell.z & mask.z) << (bits.x + bits.y))
 
 
-@ti.kernel
-def _count(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell: float, n_buckets: ti.i32,
-           bits: ivec3,
-           # outputs
-           bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray()):
+@ti.func
+def count_step(x: ti.template(), flags: ti.template(), n, inv_cell, n_buckets, bits,
+               # outputs
+               bucket: ti.template(), rank: ti.template(), counts: ti.template()):
     for b in range(n_buckets + 1):
         counts[b] = 0
     for i in range(n):
@@ -61,10 +60,10 @@ def _count(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell
 SCAN_BLOCK = 1024  # buckets per block of the parallel prefix sum
 
 
-@ti.kernel
-def _prefix_sum(counts: ti.types.ndarray(), n_buckets: ti.i32, block_sums: ti.types.ndarray(),
-                # outputs
-                starts: ti.types.ndarray()):
+@ti.func
+def prefix_sum_step(counts: ti.template(), n_buckets, block_sums: ti.template(),
+                    # outputs
+                    starts: ti.template()):
     """Exclusive prefix sum of the counts into starts[0..n_buckets] (starts[n_buckets] is
     the total), in three phases: block totals in parallel, a serial scan of the (few)
     block totals, then each block's own scan in parallel from its offset."""
@@ -87,18 +86,18 @@ def _prefix_sum(counts: ti.types.ndarray(), n_buckets: ti.i32, block_sums: ti.ty
             running += counts[k]
 
 
-@ti.kernel
-def _scatter(bucket: ti.types.ndarray(), rank: ti.types.ndarray(), starts: ti.types.ndarray(), n: ti.i32,
-             # outputs
-             entries: ti.types.ndarray()):
+@ti.func
+def scatter_step(bucket: ti.template(), rank: ti.template(), starts: ti.template(), n,
+                 # outputs
+                 entries: ti.template()):
     for i in range(n):
         entries[starts[bucket[i]] + rank[i]] = i
 
 
-@ti.kernel
-def _sort_buckets(starts: ti.types.ndarray(), n_buckets: ti.i32,
-                  # in-out
-                  entries: ti.types.ndarray()):
+@ti.func
+def sort_buckets_step(starts: ti.template(), n_buckets,
+                      # in-out
+                      entries: ti.template()):
     # Insertion sort inside each bucket: buckets are short, and sorted buckets make the
     # neighbour order, and so every sum over neighbours, independent of thread timing.
     for b in range(n_buckets):
@@ -112,16 +111,30 @@ def _sort_buckets(starts: ti.types.ndarray(), n_buckets: ti.i32,
             entries[m + 1] = value
 
 
-@ti.kernel
-def _gather(x: ti.types.ndarray(), radius: ti.types.ndarray(), entries: ti.types.ndarray(),
-            starts: ti.types.ndarray(), n_buckets: ti.i32,
-            # outputs
-            sorted_xr: ti.types.ndarray()):
+@ti.func
+def gather_step(x: ti.template(), radius: ti.template(), entries: ti.template(), starts: ti.template(), n_buckets,
+                # outputs
+                sorted_xr: ti.template()):
     """Positions and radii (x, y, z, r) in bucket order: a query reads one 16-byte record per
     candidate, from memory that lies together instead of jumping through the particle arrays."""
     for k in range(starts[n_buckets]):
         i = entries[k]
         sorted_xr[k] = vec4(x[i], radius[i])
+
+
+@ti.kernel
+def _sort(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell: float,
+          n_buckets: ti.i32, bits: ivec3,
+          # outputs
+          bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray(),
+          block_sums: ti.types.ndarray(), starts: ti.types.ndarray(), entries: ti.types.ndarray(),
+          sorted_xr: ti.types.ndarray()):
+    """The counting sort in one launch: its steps' parallel loops run one after the other."""
+    count_step(x, flags, n, inv_cell, n_buckets, bits, bucket, rank, counts)
+    prefix_sum_step(counts, n_buckets + 1, block_sums, starts)
+    scatter_step(bucket, rank, starts, n, entries)
+    sort_buckets_step(starts, n_buckets + 1, entries)
+    gather_step(x, radius, entries, starts, n_buckets, sorted_xr)
 
 
 @ti.func
@@ -276,11 +289,8 @@ class HashGrid:
         particle store can be put in cell order by it (`ParticleStore.permute`)."""
         self._ensure(n)
         inv_cell = 1.0 / cell_size
-        _count(x, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts)
-        _prefix_sum(self.counts, self.n_buckets + 1, self.block_sums, self.starts)
-        _scatter(self.bucket, self.rank, self.starts, n, self.entries)
-        _sort_buckets(self.starts, self.n_buckets + 1, self.entries)
-        _gather(x, radius, self.entries, self.starts, self.n_buckets, self.sorted_xr)
+        _sort(x, radius, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts,
+              self.block_sums, self.starts, self.entries, self.sorted_xr)
         return self.n_buckets, inv_cell, self.bits, self.starts, self.entries, self.sorted_xr
 
     def neighbour_lists(self, n: int):
