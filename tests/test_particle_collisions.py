@@ -134,7 +134,7 @@ def test_hash_grid_matches_brute_force(offset):
         expected = np.flatnonzero((d[i] < reach[i]) & (np.arange(n) != i))
         assert np.array_equal(lists[i], expected), i
         assert touching[i] == np.count_nonzero((d[i] < contact[i]) & (np.arange(n) != i)), i
-    assert grid.take_overflow() == 0
+    assert grid.dropped() == 0
 
 
 def test_particle_collisions_need_a_material():

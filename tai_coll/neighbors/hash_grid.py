@@ -299,8 +299,6 @@ class HashGrid:
         table = self.neighbours.to_numpy()[:n]
         return [np.sort(table[i, : counts[i]]) for i in range(n)]
 
-    def take_overflow(self) -> int:
-        value = int(self.overflow.to_numpy()[0])
-        if value:
-            self.overflow.fill(0)
-        return value
+    def dropped(self) -> int:
+        """Neighbours left out of full lists by every build so far (a read from the device)."""
+        return int(self.overflow[0])

@@ -368,7 +368,7 @@ class ParticleCollisions:
         """Neighbours left out of full lists since the start (a read from the device); more
         than NEIGHBOUR_CAPACITY particles within a particle's reach means particles far
         smaller than the largest, or a pile crushed far beyond its radii."""
-        return int(self.grid.overflow[0])
+        return self.grid.dropped()
 
     def _sort(self, particles, x, cell_size: float):
         """The grid's counting sort of the store's particles (at positions x)."""
