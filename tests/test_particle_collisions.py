@@ -458,3 +458,37 @@ def test_grid_entries_order_every_particle():
     grid.build(xs, rs, flags, n, 0.05, 0.01)
     lists = grid.neighbour_lists(n)
     assert all(np.all(status[lst] == 0) for lst in lists)
+
+
+def test_grid_sort_on_a_table_of_many_scan_blocks():
+    # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum (its serial middle
+    # phase included). starts is the exclusive prefix sum of counts, each bucket's entries are
+    # its particles in increasing order, and sorted_xr holds their positions and radii.
+    import taichi as ti
+    from tai_coll import runtime
+    from tai_coll.neighbors.hash_grid import SCAN_BLOCK
+
+    rng = np.random.default_rng(5)
+    n = 20_000
+    x = rng.uniform(-1.0, 1.0, (n, 3))
+    xs = ti.Vector.ndarray(3, float, shape=n)
+    xs.from_numpy(x.astype(runtime.float_dtype()))
+    rs = ti.ndarray(float, shape=n)
+    rs.fill(0.01)
+    flags = ti.ndarray(ti.i32, shape=n)
+    flags.fill(0)
+    grid = HashGrid()
+    n_buckets, inv_cell, bits, *_ = grid.sort(xs, rs, flags, n, 0.03)
+    assert n_buckets // SCAN_BLOCK >= 32
+    counts = grid.counts.to_numpy()[: n_buckets + 1]
+    starts = grid.starts.to_numpy()[: n_buckets + 2]
+    assert np.array_equal(starts[: n_buckets + 1], np.concatenate([[0], np.cumsum(counts)[:-1]]))
+    assert starts[n_buckets] == n and counts[n_buckets] == 0
+    cell = np.floor(x * inv_cell).astype(np.int64)
+    mask = (1 << np.array(list(bits))) - 1
+    bucket = ((cell[:, 0] & mask[0]) | ((cell[:, 1] & mask[1]) << bits[0])
+              | ((cell[:, 2] & mask[2]) << (bits[0] + bits[1])))
+    entries = grid.entries.to_numpy()[:n]
+    order = np.lexsort((np.arange(n), bucket))  # by bucket, then by index
+    assert np.array_equal(entries, order)
+    assert np.allclose(grid.sorted_xr.to_numpy()[:n], np.hstack([x[order], np.full((n, 1), 0.01)]))
