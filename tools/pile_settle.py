@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import bench_pile  # noqa: E402
-from bench import machine_info, write_json  # noqa: E402
+from bench import init_taichi, machine_info, write_json  # noqa: E402
 
 
 def measure(scene, half: float, wall_s: float) -> dict:
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
 
     import tai_coll as tc
 
-    tc.init(arch=args.arch, precision="f32", threads=args.threads if args.arch == "cpu" else None)
+    init_taichi(tc, args)
     scene = bench_pile.pile_scene(tc, args.particles, variant=args.variant)
     half = bench_pile.pile_half(args.particles)
     frame = bench_pile.SUBSTEPS * bench_pile.DT[args.variant]
