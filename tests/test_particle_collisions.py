@@ -63,20 +63,31 @@ def test_newtons_cradle_passes_the_velocity_down_the_row():
     assert out.sum() == pytest.approx(1.0, abs=1e-12)
 
 
-def test_stack_on_a_floor_comes_to_rest():
+def assert_stack_rests_in_contact(scene, r, count):
+    """A column of `count` particles of radius r on a floor: still, every neighbour touching
+    (no gap wider than round-off), overlaps below 5 % of r, the lowest one on the floor."""
+    assert np.abs(scene.velocities()).max() < 1e-3
+    y = np.sort(scene.positions()[:, 1])
+    xz = scene.positions()[:, [0, 2]]
+    assert len(y) == count and np.abs(xz - xz[0]).max() < 1e-6  # still a column
+    assert np.all(np.diff(y) - 2 * r < 1e-5 * r)
+    assert scene.particle_overlap()["max"] < 0.05
+    assert y[0] == pytest.approx(r, abs=1e-3 * r)
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_stack_on_a_floor_comes_to_rest(method):
     r = 0.01
     scene = tc.Scene(dt=1 / 1000, substeps=5)
     scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.2, friction=0.4))
-    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), method=method)
     scene.add_particles(positions=[[0, r + k * 2.05 * r, 0] for k in range(10)], radius=r)
     scene.step(100)
-    assert np.abs(scene.velocities()).max() < 1e-3
-    overlap = scene.particle_overlap()
-    assert overlap["pairs"] == 9 and overlap["max"] < 0.05
-    assert scene.positions()[0, 1] == pytest.approx(r, abs=1e-3 * r)
+    assert_stack_rests_in_contact(scene, r, 10)
 
 
-def test_pile_in_a_box_settles(request):
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_pile_in_a_box_settles(method):
     # 10,000 particles dropped into a box of planes: the pile's overlap stays small, no
     # particle escapes, kinetic energy decays to near zero.
     r, half = 0.01, 0.25
@@ -85,7 +96,7 @@ def test_pile_in_a_box_settles(request):
              ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]
     for point, normal in walls:
         scene.add_collider(tc.Plane(point=point, normal=normal), material=tc.Material(restitution=0.2, friction=0.4))
-    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), method=method)
     rng = np.random.default_rng(0)
     g = np.arange(-half + 1.5 * r, half - 1.5 * r, 2.3 * r)
     X, Y, Z = np.meshgrid(g, np.arange(0.02, 3.0, 2.3 * r), g, indexing="ij")
@@ -105,17 +116,12 @@ def test_pile_in_a_box_settles(request):
     assert np.all(scene.status() == "active")
 
 
-@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (-37.3, -5.0, -12.9)])
-def test_hash_grid_matches_brute_force(offset):
-    rng = np.random.default_rng(3)
-    n = 600
-    x = rng.uniform(-0.3, 0.3, (n, 3)) + np.array(offset)
-    x[:5] += [1e3, -2e3, 5e2]  # far outside the others' bounds
-    radius = rng.uniform(0.01, 0.03, n)
-    margin = 0.005
+def grid_of(x, radius, margin, forward=False):
+    """A HashGrid built on host arrays (positions x, radii), every particle simulated."""
     import taichi as ti
     from tai_coll import runtime
 
+    n = len(x)
     dtype = runtime.float_dtype()
     xs = ti.Vector.ndarray(3, float, shape=n)
     xs.from_numpy(x.astype(dtype))
@@ -124,8 +130,21 @@ def test_hash_grid_matches_brute_force(offset):
     flags = ti.ndarray(ti.i32, shape=n)
     flags.fill(0)
     grid = HashGrid()
-    grid.build(xs, rs, flags, n, 2 * radius.max() + margin, margin)
-    lists = grid.neighbour_lists(n)
+    grid.build(xs, rs, flags, n, 2 * radius.max() + margin, margin, forward=forward)
+    return grid
+
+
+@pytest.mark.parametrize("forward", [False, True])
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (-37.3, -5.0, -12.9)])
+def test_hash_grid_matches_brute_force(offset, forward):
+    rng = np.random.default_rng(3)
+    n = 600
+    x = rng.uniform(-0.3, 0.3, (n, 3)) + np.array(offset)
+    x[:5] += [1e3, -2e3, 5e2]  # far outside the others' bounds
+    radius = rng.uniform(0.01, 0.03, n)
+    margin = 0.005
+    grid = grid_of(x, radius, margin, forward)
+    lists = grid.neighbour_lists(n)  # from forward lists: each pair put in both particles' lists
     d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
     reach = radius[:, None] + radius[None, :] + margin
     touching = grid.touching.to_numpy()[:n]
@@ -133,8 +152,91 @@ def test_hash_grid_matches_brute_force(offset):
     for i in range(n):
         expected = np.flatnonzero((d[i] < reach[i]) & (np.arange(n) != i))
         assert np.array_equal(lists[i], expected), i
-        assert touching[i] == np.count_nonzero((d[i] < contact[i]) & (np.arange(n) != i)), i
+        if not forward:
+            assert touching[i] == np.count_nonzero((d[i] < contact[i]) & (np.arange(n) != i)), i
+    if forward:  # each pair listed once, by the particle sorted first
+        counts = grid.neighbour_count.to_numpy()[:n]
+        table = grid.neighbours.to_numpy()[:n]
+        slot_of = np.empty(n, int)
+        slot_of[grid.entries.to_numpy()[:n]] = np.arange(n)
+        for i in range(n):
+            assert np.all(slot_of[table[i, : counts[i]]] > slot_of[i]), i
+        assert counts.sum() == sum(len(row) for row in lists) // 2
     assert grid.dropped() == 0
+
+
+def gauss_seidel_units(grid, n):
+    """Per particle: the colour (0..7) and the unit (an id) the coloured passes give it,
+    recomputed on the host from the grid's buckets (see tai_coll.solvers.gauss_seidel)."""
+    from tai_coll.solvers.gauss_seidel import UNIT_BITS
+
+    bits = [int(b) for b in grid.bits]
+    starts = grid.starts.to_numpy()
+    active = int(starts[grid.n_buckets])
+    bucket = np.repeat(np.arange(grid.n_buckets), np.diff(starts[: grid.n_buckets + 1]))
+    coords = np.stack([bucket & ((1 << bits[0]) - 1), (bucket >> bits[0]) & ((1 << bits[1]) - 1),
+                       bucket >> (bits[0] + bits[1])], 1)
+    unit = coords >> np.array(UNIT_BITS)
+    colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
+    unit_id = unit[:, 0] + (unit[:, 1] << 16) + (unit[:, 2] << 32)
+    entries = grid.entries.to_numpy()[:active]
+    per_colour, per_unit = np.full(n, -1), np.full(n, -1)
+    per_colour[entries], per_unit[entries] = colour, unit_id
+    return per_colour, per_unit
+
+
+@pytest.mark.parametrize("spread", [0.3, 40.0])
+def test_gauss_seidel_units_of_a_colour_share_no_particle(spread):
+    # The coloured passes resolve the units of one colour at the same time: what one unit's
+    # pairs touch (its particles and their listed neighbours) must not meet what another's
+    # touch. 30 dense clusters, close together or spread over many table widths (wrap-around).
+    rng = np.random.default_rng(11)
+    n = 3000
+    clusters = rng.uniform(-spread, spread, (30, 3)) - [3.1, 0.2, -7.7]
+    x = clusters[np.arange(n) % 30] + rng.uniform(-0.12, 0.12, (n, 3))
+    radius = rng.uniform(0.01, 0.02, n)
+    grid = grid_of(x, radius, 0.005, forward=True)
+    colour, unit = gauss_seidel_units(grid, n)
+    assert np.all(colour >= 0)
+    counts = grid.neighbour_count.to_numpy()[:n]
+    table = grid.neighbours.to_numpy()[:n]
+    owner = np.repeat(np.arange(n), counts)
+    listed = np.concatenate([table[i, : counts[i]] for i in range(n)])
+    assert len(listed) > n // 2  # pairs enough to mean something
+    # (particle touched, colour, unit) for the owners and for the neighbours they list
+    touched = np.concatenate([np.arange(n), listed])
+    by = np.concatenate([np.arange(n), owner])
+    records = np.unique(np.stack([touched, colour[by], unit[by]], 1), axis=0)
+    # at most one unit of each colour touches any particle
+    pairs = np.unique(records[:, :2], axis=0)
+    assert len(pairs) == len(records)
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_one_projection_pass_separates_every_isolated_pair(method):
+    # Overlapping pairs at rest, far apart from each other and spread over many widths of the
+    # grid's table: no contact pass has anything to do, one projection pass must separate
+    # every pair exactly (a unit the coloured pass skipped would leave its pair overlapping),
+    # split by inverse mass: each pair's centre of mass stays put.
+    rng = np.random.default_rng(5)
+    pairs, r = 400, 0.01
+    centres = rng.uniform(-30.0, 30.0, (pairs, 3)) + [0.0, 40.0, 0.0]
+    axis = rng.normal(size=(pairs, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    gap = rng.uniform(1.0, 1.9, pairs)[:, None] * r  # overlaps of 5 % to 50 %
+    x = np.concatenate([centres + 0.5 * gap * axis, centres - 0.5 * gap * axis])
+    mass = rng.uniform(1.0, 3.0, 2 * pairs)
+    scene = tc.Scene(dt=1 / 1000, substeps=1, gravity=(0.0, 0.0, 0.0))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.0, friction=0.0), method=method,
+                                     projection_iterations=1)
+    scene.add_particles(positions=x, radius=r, mass=mass)
+    scene.step(1)
+    y = scene.positions()
+    a, b = y[:pairs], y[pairs:]
+    assert np.allclose(np.linalg.norm(a - b, axis=1), 2 * r, rtol=1e-4)
+    before = (mass[:pairs, None] * x[:pairs] + mass[pairs:, None] * x[pairs:]) / (mass[:pairs] + mass[pairs:])[:, None]
+    after = (mass[:pairs, None] * a + mass[pairs:, None] * b) / (mass[:pairs] + mass[pairs:])[:, None]
+    assert np.allclose(after, before, atol=1e-5 * r)
 
 
 def test_particle_collisions_need_a_material():
@@ -143,6 +245,15 @@ def test_particle_collisions_need_a_material():
         scene.enable_particle_collisions(material=0.5)
     with pytest.raises(ValueError, match="iterations"):
         scene.enable_particle_collisions(iterations=0)
+    with pytest.raises(ValueError, match="method must be one of 'gauss-seidel', 'jacobi'; got 'sor'"):
+        scene.enable_particle_collisions(method="sor")
+    with pytest.raises(ValueError, match="relaxation"):
+        scene.enable_particle_collisions(method="jacobi", relaxation=2.5)
+    defaults = scene.enable_particle_collisions(method="jacobi")
+    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (4, 4, 1.5)
+    defaults = scene.enable_particle_collisions()
+    assert defaults.method == "gauss-seidel"
+    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (2, 2, 1.0)
 
 
 def test_full_neighbour_lists_are_warned_about_once():
@@ -359,19 +470,19 @@ def test_resting_stack_keeps_its_lists():
     builds = pairs.list_builds
     scene.step(40)
     assert pairs.list_builds == builds  # at rest: 200 substeps on the same lists
-    assert np.abs(scene.velocities()).max() < 1e-3
-    overlap = scene.particle_overlap()
-    assert overlap["pairs"] == 9 and overlap["max"] < 0.05
+    assert_stack_rests_in_contact(scene, r, 10)
     # a write from the host drops the lists: the stack moved sideways is listed anew
+    builds = pairs.list_builds  # (particle_overlap sorted the grid anew: the lists were rebuilt)
     scene.set_positions(scene.positions() + [0.5, 0.0, 0.0])
     scene.step(1)
     assert pairs.list_builds == builds + 1
-    assert scene.particle_overlap()["pairs"] == 9
+    assert_stack_rests_in_contact(scene, r, 10)
 
 
 def test_reordering_keeps_the_public_order():
     # The pair solver puts the store in cell order; what the scene reads and writes is
-    # still in the order the particles were added, and the physics is the same.
+    # still in the order the particles were added, and the physics is the same (with Jacobi
+    # passes, whose result does not depend on the order of the particles).
     rng = np.random.default_rng(7)
     n = 400
     x = rng.uniform([-0.1, 0.01, -0.1], [0.1, 0.3, 0.1], (n, 3))
@@ -381,7 +492,8 @@ def test_reordering_keeps_the_public_order():
     for reorder in (False, True):
         scene = tc.Scene(dt=1 / 1000, substeps=5)
         scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.2, friction=0.4))
-        scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), reorder=reorder)
+        scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), reorder=reorder,
+                                         method="jacobi")
         scene.add_particles(positions=x, mass=mass, radius=radius)
         scene.step(20)
         runs[reorder] = scene

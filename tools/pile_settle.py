@@ -63,7 +63,7 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, default=100_000)
     parser.add_argument("--seconds", type=float, default=1.5, help="simulated seconds from the drop")
     parser.add_argument("--every", type=float, default=0.25, help="simulated seconds between measurements")
-    parser.add_argument("--variant", choices=("impulse", "dem"), default="impulse")
+    parser.add_argument("--variant", choices=tuple(bench_pile.DT), default="impulse")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
     parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
     parser.add_argument("--json", default="bench_results/pile_settle.json")

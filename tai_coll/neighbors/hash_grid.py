@@ -194,7 +194,7 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: 
 
 @ti.kernel
 def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_cell: float, bits: ivec3, margin: float,
-                starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(),
+                forward: ti.i32, starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(),
                 # outputs
                 neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
                 touching: ti.types.ndarray(), overflow: ti.types.ndarray()):
@@ -210,8 +210,9 @@ def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_cel
         for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):  # query_range's rows, unrolled: the hot path
             for part in range(3):
                 begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
-                found, touch = _scan_row(begin, end, slot, i, xi, own.w, margin, found, touch, entries, sorted_xr,
-                                         neighbours)
+                # forward lists: only the entries after this one (most rows end before it)
+                found, touch = _scan_row(ti.select(forward != 0, ti.max(begin, slot + 1), begin), end, slot, i, xi,
+                                         own.w, margin, found, touch, entries, sorted_xr, neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
@@ -233,6 +234,7 @@ class HashGrid:
     def __init__(self):
         self.capacity = 0
         self.list_capacity = 0
+        self.forward = False  # whether the lists hold each pair once (see build)
         self.n_buckets = 0
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
@@ -271,14 +273,17 @@ class HashGrid:
         lists = [self.neighbours, self.neighbour_count, self.touching] if self.list_capacity else []
         return [self.bucket, self.rank, self.entries, self.sorted_xr, self.counts, self.starts, self.block_sums] + lists
 
-    def build(self, x, radius, flags, n: int, cell_size: float, margin: float):
+    def build(self, x, radius, flags, n: int, cell_size: float, margin: float, forward: bool = False):
         """Sort the first n particles (positions x, an ndarray) into buckets and collect, for
         each, the particles closer than r_i + r_j + margin (needs cell_size >= 2 r_max + margin),
-        and how many of them touch it (closer than r_i + r_j) in `touching`."""
+        and how many of them touch it (closer than r_i + r_j) in `touching`. forward: list
+        only the particles after it in the sorted entries (each pair once, in the list of the
+        one sorted first); `touching` then counts the listed ones."""
         self.sort(x, radius, flags, n, cell_size)
         self._ensure_lists()
-        _neighbours(flags, n, self.n_buckets, 1.0 / cell_size, self.bits, margin, self.starts, self.entries,
-                    self.sorted_xr, self.neighbours, self.neighbour_count, self.touching, self.overflow)
+        self.forward = bool(forward)
+        _neighbours(flags, n, self.n_buckets, 1.0 / cell_size, self.bits, margin, int(forward), self.starts,
+                    self.entries, self.sorted_xr, self.neighbours, self.neighbour_count, self.touching, self.overflow)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
@@ -294,10 +299,18 @@ class HashGrid:
         return self.n_buckets, inv_cell, self.bits, self.starts, self.entries, self.sorted_xr
 
     def neighbour_lists(self, n: int):
-        """Host copies: a list of index arrays, one per particle (for tests and debugging)."""
+        """Host copies: a list of index arrays, one per particle (for tests and debugging); from
+        forward lists, each pair appears in both particles' arrays, as from full ones."""
         counts = self.neighbour_count.to_numpy()[:n]
         table = self.neighbours.to_numpy()[:n]
-        return [np.sort(table[i, : counts[i]]) for i in range(n)]
+        lists = [table[i, : counts[i]] for i in range(n)]
+        if self.forward:
+            owner = np.repeat(np.arange(n), counts)
+            listed = np.concatenate(lists) if n else np.zeros(0, int)
+            back = np.argsort(listed, kind="stable")
+            bounds = np.searchsorted(listed[back], np.arange(n + 1))
+            lists = [np.concatenate([lists[i], owner[back[bounds[i]:bounds[i + 1]]]]) for i in range(n)]
+        return [np.sort(row) for row in lists]
 
     def dropped(self) -> int:
         """Neighbours left out of full lists by every build so far (a read from the device)."""

@@ -54,3 +54,14 @@ def respond_pair(va: vec3, vb: vec3, inv_ma, inv_mb, n: vec3, restitution, frict
     impulse = (v_new - v_rel) / (inv_ma + inv_mb)
     return va + inv_ma * impulse, vb - inv_mb * impulse
 
+
+@ti.func
+def pair_normal(xi: vec3, xj: vec3, i, j):
+    """Unit normal from j to i; coincident centres get a fixed axis whose sign depends on
+    the index order, so the two sides still see opposite normals. Branch-free (the passes
+    call it for every listed neighbour)."""
+    d = xi - xj
+    dist = d.norm()
+    axis = vec3(0.0, ti.select(i < j, -1.0, 1.0), 0.0)
+    n = ti.select(dist > TINY, d / ti.max(dist, TINY), axis)
+    return n, dist

@@ -1,0 +1,150 @@
+"""Graph-coloured Gauss-Seidel passes over particle pairs (the alternative to Jacobi in pairs.py).
+
+A Gauss-Seidel pass resolves one pair at a time and applies its impulse (or separation) to both
+particles at once, so the next pair sees the result: support from a floor climbs a column of
+particles within one pass instead of one particle per pass, and no pair's correction has to be
+shared out against the others' (no over-compression, no relaxation by contact count). Each pair
+is resolved once per pass, by the particle the grid sorted first (the lists hold only the
+neighbours after a particle in the sorted entries: HashGrid.build(forward=True)); equal and
+opposite changes split by inverse mass keep momentum (and, for positions, the centre of mass)
+exactly. A particle's own pairs are
+evaluated from its state when its turn comes and their changes to it summed and applied after
+them (the changes to its neighbours apply at once): its pairs' arithmetic then does not wait on
+each other's results, which keeps the pass fast.
+
+Pairs are resolved in parallel by colouring the hash grid's table: units of 4 x 2 x 2 buckets
+(bucket coordinates: the low bits of the cell coordinates, see hash_grid.bucket_of) in eight
+colours by the parity of the unit's coordinates. A pair links particles in neighbouring cells,
+so in neighbouring buckets: resolving a unit's pairs reads and writes particles within one
+bucket of the unit. Two units of one colour are a unit (two buckets or more) apart along some
+axis, so what they touch never overlaps (the table, at least 16 x 8 x 8 buckets, holds an even
+number of units along each axis, so this holds across its wrap-around too). The units of a
+colour run in parallel, each unit's particles in sequence (bucket order, then list order), the
+colours one after the other: the result does not depend on thread timing.
+
+The colouring needs the buckets the neighbour lists were built from (HashGrid.build), unchanged.
+"""
+
+import taichi as ti
+
+from ..response.laws import pair_normal, respond
+
+vec3 = ti.math.vec3
+ivec3 = ti.math.ivec3
+
+COLOURS = 8
+# A unit's extent in buckets along x, y, z, as powers of two: 4 x 2 x 2 (rows of four buckets
+# along x, which lie together in memory). The table (HashGrid) is a power of two wide along
+# each axis, at least 16 along x and 8 along y and z: an even number of units along each.
+UNIT_BITS = (2, 1, 1)
+ROWS = 1 << (UNIT_BITS[1] + UNIT_BITS[2])  # rows of a unit
+
+
+@ti.func
+def unit_origin(c, u, bits: ivec3) -> ti.i32:
+    """The first bucket of unit u of colour c (0..7: the parities of the unit's coordinates
+    along x, y, z), the unit's lowest corner."""
+    unit = ivec3(UNIT_BITS)
+    parity = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1)
+    per = 1 << (bits - unit - 1)  # units of one colour along each axis
+    index = ivec3(u % per.x, (u // per.x) % per.y, u // (per.x * per.y))
+    corner = (2 * index + parity) << unit  # bucket coordinates
+    return corner.x | (corner.y << bits.x) | (corner.z << (bits.x + bits.y))
+
+
+@ti.func
+def row_range(origin, r, bits: ivec3, starts: ti.template()):
+    """Entries of row r of the unit at origin: its buckets along x, consecutive in the table,
+    so one range of entries."""
+    first = origin + ((r % (1 << UNIT_BITS[1])) << bits.x) + ((r >> UNIT_BITS[1]) << (bits.x + bits.y))
+    return starts[first], starts[first + (1 << UNIT_BITS[0])]
+
+
+ELASTIC, CONTACT, PROJECTION = 0, 1, 2  # what a pass does (see _pass)
+
+
+@ti.kernel
+def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(),
+          bits: ivec3, starts: ti.types.ndarray(), entries: ti.types.ndarray(), neighbours: ti.types.ndarray(),
+          neighbour_count: ti.types.ndarray(), restitution: float, friction: float, wet_friction: float,
+          wet_law: ti.template(), relaxation: float, dt: float,
+          # outputs
+          changed: ti.types.ndarray(),
+          # in-out
+          v_test: ti.types.ndarray(), x1: ti.types.ndarray(), v1: ti.types.ndarray()):
+    """One pass over the pairs touching at the candidates x1, in colour order (see the module's
+    notes); changed[0]: whether any pair had something to do. Modes:
+    ELASTIC, CONTACT: the law (restitution, Coulomb and wet friction) on the velocities v_test
+        of each approaching pair, its change applied to both. ELASTIC (v_test = v(t)): the
+        change added to v_test and to the candidates, v1 += dv, x1 += dt dv. CONTACT (v_test
+        is v1, e = 0): v1 += dv, the candidate re-integrated, x1 = x + dt v1.
+    PROJECTION: each overlapping pair moved apart along its normal, split by inverse mass,
+        the velocities following the positions (v1 += dx / dt); x and v_test unused."""
+    changed[0] = 0
+    units = 1 << (bits.x + bits.y + bits.z - UNIT_BITS[0] - UNIT_BITS[1] - UNIT_BITS[2] - 3)  # per colour
+    for c in ti.static(range(COLOURS)):
+        for u in range(units):
+            origin = unit_origin(c, u, bits)
+            found = 0
+            for r in range(ROWS):
+                begin, end = row_range(origin, r, bits, starts)
+                for slot in range(begin, end):
+                    i = entries[slot]
+                    ri = radius[i]
+                    mi = mass[i]
+                    xi = x1[i]
+                    vi = v_test[i]
+                    own = vec3(0.0)  # the change to i from its pairs (velocity, or position)
+                    for k in range(neighbour_count[i]):
+                        j = neighbours[i, k]
+                        xj = x1[j]
+                        reach = ri + radius[j]
+                        if (xi - xj).norm_sqr() < reach * reach:
+                            nrm, dist = pair_normal(xi, xj, i, j)
+                            mj = mass[j]
+                            if ti.static(mode == PROJECTION):
+                                found = 1
+                                move = (relaxation * (reach - dist) / (mi + mj)) * nrm
+                                own += mj * move
+                                x1[j] = xj - mi * move
+                                v1[j] -= (mi / dt) * move
+                            else:
+                                v_rel = vi - v_test[j]
+                                v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
+                                if dvn > 0.0:
+                                    found = 1
+                                    change = relaxation * (v_new - v_rel) / (mi + mj)
+                                    own += mj * change
+                                    vj = v_test[j] - mi * change
+                                    v_test[j] = vj
+                                    if ti.static(mode == ELASTIC):
+                                        v1[j] -= mi * change
+                                        x1[j] = xj - (dt * mi) * change
+                                    else:
+                                        x1[j] = x[j] + dt * vj
+                    if ti.static(mode == PROJECTION):
+                        x1[i] = xi + own
+                        v1[i] += own / dt
+                    elif ti.static(mode == ELASTIC):
+                        v_test[i] = vi + own
+                        v1[i] += own
+                        x1[i] = xi + dt * own
+                    else:
+                        v_test[i] = vi + own
+                        x1[i] = x[i] + dt * (vi + own)
+            if found != 0 and changed[0] == 0:
+                changed[0] = 1
+
+
+def velocity_pass(elastic: bool, x, mass, radius, grid, law: tuple, relaxation: float, dt: float, changed, v_test,
+                  x1, v1):
+    """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
+    law with e = 0) over the pairs of `grid`'s forward lists; see _pass."""
+    _pass(ELASTIC if elastic else CONTACT, x, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours,
+          grid.neighbour_count, *law, relaxation, dt, changed, v_test, x1, v1)
+
+
+def projection_pass(mass, radius, grid, relaxation: float, dt: float, changed, x1, v1):
+    """A projection pass over the pairs of `grid`'s forward lists; see _pass."""
+    _pass(PROJECTION, x1, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count,
+          0.0, 0.0, 0.0, 0, relaxation, dt, changed, v1, x1, v1)
