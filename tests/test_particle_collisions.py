@@ -604,3 +604,51 @@ def test_grid_sort_on_a_table_of_many_scan_blocks():
     order = np.lexsort((np.arange(n), bucket))  # by bucket, then by index
     assert np.array_equal(entries, order)
     assert np.allclose(grid.sorted_xr.to_numpy()[:n], np.hstack([x[order], np.full((n, 1), 0.01)]))
+
+
+def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
+    # Gauss-Seidel's last pass: the law (here e = 0, no friction) on pairs touching at the
+    # final positions (up to SETTLE_TOUCH beyond r_i + r_j, what a projection leaves):
+    # isolated touching pairs that approach stop approaching, with momentum conserved;
+    # separating pairs and pairs just out of touch keep their velocities; nothing moves.
+    import taichi as ti
+    from tai_coll import runtime
+    from tai_coll.response.laws import WET_LINEAR
+    from tai_coll.solvers import gauss_seidel
+
+    rng = np.random.default_rng(4)
+    pairs, r = 300, 0.01
+    centres = rng.uniform(-20.0, 20.0, (pairs, 3))
+    axis = rng.normal(size=(pairs, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    kind = np.arange(pairs) % 3  # 0: touching, approaching; 1: touching, separating; 2: just apart
+    distance = np.where(kind == 2, 2 * r * 1.01, 2 * r * (1 + 0.5 * gauss_seidel.SETTLE_TOUCH))
+    x = np.concatenate([centres + 0.5 * distance[:, None] * axis, centres - 0.5 * distance[:, None] * axis])
+    closing = np.where(kind == 1, 1.0, -1.0)[:, None] * rng.uniform(0.01, 0.5, (pairs, 1)) * axis
+    tangential = rng.normal(scale=0.1, size=(pairs, 3))
+    v = np.concatenate([closing + tangential, -closing + tangential])  # a's velocity minus b's: 2 closing
+    mass = rng.uniform(1.0, 3.0, 2 * pairs)
+    n = 2 * pairs
+    grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
+    dtype = runtime.float_dtype()
+
+    def nd(a):
+        out = ti.Vector.ndarray(3, float, shape=n) if a.ndim == 2 else ti.ndarray(float, shape=n)
+        out.from_numpy(a.astype(dtype))
+        return out
+
+    x1, v1, changed = nd(x), nd(v), ti.ndarray(ti.i32, shape=1)
+    gauss_seidel.settle_pass(nd(x), nd(mass), nd(np.full(n, r)), grid, (0.0, 0.0, 0.0, WET_LINEAR), 1e-3, changed,
+                             x1, v1)
+    after = v1.to_numpy().astype(float)
+    assert np.array_equal(x1.to_numpy(), x.astype(dtype))  # nothing moved
+    assert changed[0] == 1
+    eps = 1e-5 if dtype == np.float32 else 1e-12
+    momentum = mass[:pairs, None] * v[:pairs] + mass[pairs:, None] * v[pairs:]
+    assert np.allclose(mass[:pairs, None] * after[:pairs] + mass[pairs:, None] * after[pairs:], momentum, atol=eps)
+    normal_rel = np.sum((after[:pairs] - after[pairs:]) * axis, axis=1)
+    stopped = kind == 0
+    assert np.all(np.abs(normal_rel[stopped]) < eps)
+    assert np.allclose(after[np.concatenate([~stopped, ~stopped])], v[np.concatenate([~stopped, ~stopped])], atol=eps)
+    tangent_rel = (after[:pairs] - after[pairs:]) - normal_rel[:, None] * axis
+    assert np.allclose(tangent_rel[stopped], 0.0, atol=eps)  # (both particles share the tangential velocity)

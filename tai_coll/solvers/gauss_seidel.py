@@ -7,10 +7,10 @@ shared out against the others' (no over-compression, no relaxation by contact co
 is resolved once per pass, by the particle the grid sorted first (the lists hold only the
 neighbours after a particle in the sorted entries: HashGrid.build(forward=True)); equal and
 opposite changes split by inverse mass keep momentum (and, for positions, the centre of mass)
-exactly. A particle's own pairs are
-evaluated from its state when its turn comes and their changes to it summed and applied after
-them (the changes to its neighbours apply at once): its pairs' arithmetic then does not wait on
-each other's results, which keeps the pass fast.
+exactly. Every pair sees the changes of the pairs before it, also those of its own
+particle's earlier pairs (summing a particle's corrections from several pairs, Jacobi-like, over-
+shoots where two neighbours push it the same way: a particle wedged between others then jumps
+from one side to the other every substep).
 
 Pairs are resolved in parallel by colouring the hash grid's table: units of 4 x 2 x 2 buckets
 (bucket coordinates: the low bits of the cell coordinates, see hash_grid.bucket_of) in eight
@@ -60,7 +60,10 @@ def row_range(origin, r, bits: ivec3, starts: ti.template()):
     return starts[first], starts[first + (1 << UNIT_BITS[0])]
 
 
-ELASTIC, CONTACT, PROJECTION = 0, 1, 2  # what a pass does (see _pass)
+ELASTIC, CONTACT, PROJECTION, SETTLE = 0, 1, 2, 3  # what a pass does (see _pass)
+# SETTLE passes count pairs as touching up to this fraction beyond r_i + r_j (a projection
+# leaves them at r_i + r_j, give or take round-off)
+SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
@@ -79,7 +82,10 @@ def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), 
         change added to v_test and to the candidates, v1 += dv, x1 += dt dv. CONTACT (v_test
         is v1, e = 0): v1 += dv, the candidate re-integrated, x1 = x + dt v1.
     PROJECTION: each overlapping pair moved apart along its normal, split by inverse mass,
-        the velocities following the positions (v1 += dx / dt); x and v_test unused."""
+        the velocities following the positions (v1 += dx / dt); x and v_test unused.
+    SETTLE (v_test is v1): the law (with restitution) on the velocities of the pairs touching
+        at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
+        the end of the substep carries approaching velocity into the next."""
     changed[0] = 0
     units = 1 << (bits.x + bits.y + bits.z - UNIT_BITS[0] - UNIT_BITS[1] - UNIT_BITS[2] - 3)  # per colour
     for c in ti.static(range(COLOURS)):
@@ -93,19 +99,21 @@ def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), 
                     ri = radius[i]
                     mi = mass[i]
                     xi = x1[i]
-                    vi = v_test[i]
-                    own = vec3(0.0)  # the change to i from its pairs (velocity, or position)
+                    vi = v_test[i]  # (projection: unused)
+                    moved = vec3(0.0)  # projection: i's displacement in this pass
                     for k in range(neighbour_count[i]):
                         j = neighbours[i, k]
                         xj = x1[j]
                         reach = ri + radius[j]
-                        if (xi - xj).norm_sqr() < reach * reach:
+                        touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
+                        if (xi - xj).norm_sqr() < touch * touch:
                             nrm, dist = pair_normal(xi, xj, i, j)
                             mj = mass[j]
                             if ti.static(mode == PROJECTION):
                                 found = 1
                                 move = (relaxation * (reach - dist) / (mi + mj)) * nrm
-                                own += mj * move
+                                xi += mj * move
+                                moved += mj * move
                                 x1[j] = xj - mi * move
                                 v1[j] -= (mi / dt) * move
                             else:
@@ -114,24 +122,24 @@ def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), 
                                 if dvn > 0.0:
                                     found = 1
                                     change = relaxation * (v_new - v_rel) / (mi + mj)
-                                    own += mj * change
+                                    vi += mj * change
                                     vj = v_test[j] - mi * change
                                     v_test[j] = vj
                                     if ti.static(mode == ELASTIC):
                                         v1[j] -= mi * change
                                         x1[j] = xj - (dt * mi) * change
-                                    else:
+                                        xi += (dt * mj) * change
+                                    elif ti.static(mode == CONTACT):
                                         x1[j] = x[j] + dt * vj
+                                        xi = x[i] + dt * vi
+                    x1[i] = xi
                     if ti.static(mode == PROJECTION):
-                        x1[i] = xi + own
-                        v1[i] += own / dt
+                        v1[i] += moved / dt
                     elif ti.static(mode == ELASTIC):
-                        v_test[i] = vi + own
-                        v1[i] += own
-                        x1[i] = xi + dt * own
+                        v1[i] += vi - v_test[i]
+                        v_test[i] = vi
                     else:
-                        v_test[i] = vi + own
-                        x1[i] = x[i] + dt * (vi + own)
+                        v_test[i] = vi
             if found != 0 and changed[0] == 0:
                 changed[0] = 1
 
@@ -142,6 +150,12 @@ def velocity_pass(elastic: bool, x, mass, radius, grid, law: tuple, relaxation: 
     law with e = 0) over the pairs of `grid`'s forward lists; see _pass."""
     _pass(ELASTIC if elastic else CONTACT, x, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours,
           grid.neighbour_count, *law, relaxation, dt, changed, v_test, x1, v1)
+
+
+def settle_pass(x, mass, radius, grid, law: tuple, dt: float, changed, x1, v1):
+    """A velocity pass at the final positions, positions unchanged; see _pass."""
+    _pass(SETTLE, x, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count, *law,
+          1.0, dt, changed, v1, x1, v1)
 
 
 def projection_pass(mass, radius, grid, relaxation: float, dt: float, changed, x1, v1):

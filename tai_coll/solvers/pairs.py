@@ -12,6 +12,9 @@ momentum is conserved exactly. PHYSICS.md 3's elastic-then-contact split carries
    x1 = x + dt v1 after each;
 5. projection passes: overlap left after the velocity passes is removed by moving
    positions apart, split by inverse mass (momentum and the centre of mass unchanged);
+   Gauss-Seidel then takes a settle pass: the law (with restitution: a pair that comes into
+   contact just then still bounces) on the pairs touching at the final positions, positions
+   unchanged, so no contact carries approaching velocity into the next substep;
 6. colliders: the scene's solver resolves the candidates against the colliders last, so no
    particle ends inside a collider.
 
@@ -509,6 +512,12 @@ class ParticleCollisions:
         for _ in range(self.projection_iterations):
             if not self._projection_pass(particles, dt):
                 break
+        if self.method == "gauss-seidel":
+            # a last velocity pass at the final positions: without it, particles jammed deep in
+            # a pile are thrown back and forth by the projection's velocity, towards a different
+            # neighbour each substep (a jitter of period two substeps)
+            gauss_seidel.settle_pass(particles.x, particles.mass, particles.radius, self.grid, law, dt,
+                                     self.changed, self.x1, self.v1)
         # 6. colliders last, and the new state
         solver.resolve_candidates(scene, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = self._counts[0]
