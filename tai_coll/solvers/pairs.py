@@ -21,8 +21,10 @@ momentum is conserved exactly. PHYSICS.md 3's elastic-then-contact split carries
 The passes visit the pairs in one of two ways (`method`):
 - "gauss-seidel" (default): one pair after another, each pair's change applied to both
   particles before the next pair is seen, in parallel over a colouring of the grid
-  (gauss_seidel.py). Support climbs a pile within a pass: 2 contact and 2 projection passes
-  leave a deep pile less overlap and jitter than 4 + 4 Jacobi passes, at the same cost or less.
+  (gauss_seidel.py). Support climbs a pile within a pass: 2 contact, 2 projection and a
+  settle pass leave a deep pile a third of the overlap 4 + 4 Jacobi passes leave, and it
+  settles sooner, at about the same cost (a few of its jammed particles keep jittering: see
+  the README's stillness figures).
 - "jacobi": every particle reads the previous iterate, in parallel. A plain Jacobi sum
   over-corrects a particle with many contacts and over-compresses piles; each pair's share is
   divided by the larger of the two particles' contact counts (the same number on both sides,
