@@ -116,21 +116,28 @@ def test_pile_in_a_box_settles(method):
     assert np.all(scene.status() == "active")
 
 
-def grid_of(x, radius, margin, forward=False):
-    """A HashGrid built on host arrays (positions x, radii), every particle simulated."""
+def on_device(a):
+    """A Taichi ndarray holding the host array a: integers as i32, floats in the session's
+    precision (n x 3 as vectors)."""
     import taichi as ti
     from tai_coll import runtime
 
+    a = np.asarray(a)
+    if np.issubdtype(a.dtype, np.integer):
+        out = ti.ndarray(ti.i32, shape=len(a))
+        out.from_numpy(a.astype(np.int32))
+    else:
+        out = ti.Vector.ndarray(3, float, shape=len(a)) if a.ndim == 2 else ti.ndarray(float, shape=len(a))
+        out.from_numpy(a.astype(runtime.float_dtype()))
+    return out
+
+
+def grid_of(x, radius, margin, forward=False):
+    """A HashGrid built on host arrays (positions x, radii), every particle simulated."""
     n = len(x)
-    dtype = runtime.float_dtype()
-    xs = ti.Vector.ndarray(3, float, shape=n)
-    xs.from_numpy(x.astype(dtype))
-    rs = ti.ndarray(float, shape=n)
-    rs.from_numpy(radius.astype(dtype))
-    flags = ti.ndarray(ti.i32, shape=n)
-    flags.fill(0)
     grid = HashGrid()
-    grid.build(xs, rs, flags, n, 2 * radius.max() + margin, margin, forward=forward)
+    grid.build(on_device(x), on_device(radius), on_device(np.zeros(n, int)), n, 2 * radius.max() + margin, margin,
+               forward=forward)
     return grid
 
 
@@ -547,19 +554,11 @@ def test_store_permute_moves_every_quantity():
 
 def test_grid_entries_order_every_particle():
     # Particles no longer simulated sit after the simulated ones, in a bucket no query visits.
-    import taichi as ti
-    from tai_coll import runtime
-
     rng = np.random.default_rng(4)
     n = 300
     x = rng.uniform(-0.2, 0.2, (n, 3))
     status = (rng.uniform(size=n) < 0.2).astype(np.int32)
-    xs = ti.Vector.ndarray(3, float, shape=n)
-    xs.from_numpy(x.astype(runtime.float_dtype()))
-    rs = ti.ndarray(float, shape=n)
-    rs.fill(0.02)
-    flags = ti.ndarray(ti.i32, shape=n)
-    flags.from_numpy(status)
+    xs, rs, flags = on_device(x), on_device(np.full(n, 0.02)), on_device(status)
     grid = HashGrid()
     n_buckets = grid.sort(xs, rs, flags, n, 0.04)[0]
     entries = grid.entries.to_numpy()[:n]
@@ -576,19 +575,12 @@ def test_grid_sort_on_a_table_of_many_scan_blocks():
     # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum (its serial middle
     # phase included). starts is the exclusive prefix sum of counts, each bucket's entries are
     # its particles in increasing order, and sorted_xr holds their positions and radii.
-    import taichi as ti
-    from tai_coll import runtime
     from tai_coll.neighbors.hash_grid import SCAN_BLOCK
 
     rng = np.random.default_rng(5)
     n = 20_000
     x = rng.uniform(-1.0, 1.0, (n, 3))
-    xs = ti.Vector.ndarray(3, float, shape=n)
-    xs.from_numpy(x.astype(runtime.float_dtype()))
-    rs = ti.ndarray(float, shape=n)
-    rs.fill(0.01)
-    flags = ti.ndarray(ti.i32, shape=n)
-    flags.fill(0)
+    xs, rs, flags = on_device(x), on_device(np.full(n, 0.01)), on_device(np.zeros(n, int))
     grid = HashGrid()
     n_buckets, inv_cell, bits, *_ = grid.sort(xs, rs, flags, n, 0.03)
     assert n_buckets // SCAN_BLOCK >= 32
@@ -631,15 +623,9 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     n = 2 * pairs
     grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
     dtype = runtime.float_dtype()
-
-    def nd(a):
-        out = ti.Vector.ndarray(3, float, shape=n) if a.ndim == 2 else ti.ndarray(float, shape=n)
-        out.from_numpy(a.astype(dtype))
-        return out
-
-    x1, v1, changed = nd(x), nd(v), ti.ndarray(ti.i32, shape=1)
-    gauss_seidel.settle_pass(nd(x), nd(mass), nd(np.full(n, r)), grid, (0.0, 0.0, 0.0, WET_LINEAR), 1e-3, changed,
-                             x1, v1)
+    x1, v1, changed = on_device(x), on_device(v), ti.ndarray(ti.i32, shape=1)
+    gauss_seidel.settle_pass(on_device(x), on_device(mass), on_device(np.full(n, r)), grid,
+                             (0.0, 0.0, 0.0, WET_LINEAR), 1e-3, changed, x1, v1)
     after = v1.to_numpy().astype(float)
     assert np.array_equal(x1.to_numpy(), x.astype(dtype))  # nothing moved
     assert changed[0] == 1
