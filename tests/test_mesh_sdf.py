@@ -295,17 +295,23 @@ def test_cache_hit_and_invalidation(tmp_path, monkeypatch):
 
 def test_bake_ahead_of_time(tmp_path, capsys):
     from tai_coll import bake as bake_cli
+    from tai_coll import runtime
 
+    # The session's own settings (tests/conftest.py): other ones would restart Taichi in this
+    # process, and the tests after this one would run there (on the CPU under
+    # TAI_COLL_TEST_ARCH=cuda).
+    info = runtime.info()
+    session = ["--arch", info.requested_arch, "--precision", info.precision]
+    session += ["--threads", str(info.threads)] if info.threads is not None else []
     mesh = trimesh.creation.icosphere(subdivisions=2)
     path = tmp_path / "ball.obj"
     mesh.export(path)
-    status = bake_cli.main([str(path), "--resolution", "20", "--arch", "cpu", "--precision", "f64",
-                            "--threads", "2"])
-    assert status == 0
+    assert bake_cli.main([str(path), "--resolution", "20", *session]) == 0
     assert "baked in" in capsys.readouterr().out
+    assert runtime.info() is info
     assert tc.MeshSDF(path, resolution=20).cache_hit
     assert tc.bake_mesh(path, resolution=20).cache_hit
-    assert bake_cli.main([str(tmp_path / "nope.obj"), "--arch", "cpu", "--precision", "f64", "--threads", "2"]) == 1
+    assert bake_cli.main([str(tmp_path / "nope.obj"), *session]) == 1
 
 
 # ---------------------------------------------------------------------------- in a scene
