@@ -6,6 +6,7 @@ import pytest
 
 import tai_coll as tc
 from tai_coll.neighbors import HashGrid
+from tai_coll.solvers import gauss_seidel
 
 
 def pair_scene(*, restitution, friction=0.0, dt=1e-4, substeps=10):
@@ -75,8 +76,18 @@ def assert_stack_rests_in_contact(scene, r, count):
     assert y[0] == pytest.approx(r, abs=1e-3 * r)
 
 
-@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
-def test_stack_on_a_floor_comes_to_rest(method):
+def pass_method(method, monkeypatch):
+    """The method to ask for; "gauss-seidel, GPU units": Gauss-Seidel with the units a GPU
+    gets (gauss_seidel.GPU_UNIT_BITS), here on the CPU."""
+    if method == "gauss-seidel, GPU units":
+        monkeypatch.setattr(gauss_seidel, "unit_bits", lambda: gauss_seidel.GPU_UNIT_BITS)
+        return "gauss-seidel"
+    return method
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "gauss-seidel, GPU units", "jacobi"])
+def test_stack_on_a_floor_comes_to_rest(method, monkeypatch):
+    method = pass_method(method, monkeypatch)
     r = 0.01
     scene = tc.Scene(dt=1 / 1000, substeps=5)
     scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.2, friction=0.4))
@@ -172,18 +183,17 @@ def test_hash_grid_matches_brute_force(offset, forward):
     assert grid.dropped() == 0
 
 
-def gauss_seidel_units(grid, n):
-    """Per particle: the colour (0..7) and the unit (an id) the coloured passes give it,
-    recomputed on the host from the grid's buckets (see tai_coll.solvers.gauss_seidel)."""
-    from tai_coll.solvers.gauss_seidel import UNIT_BITS
-
+def gauss_seidel_units(grid, n, unit_bits):
+    """Per particle: the colour (0..7) and the unit (an id) the coloured passes give it with
+    units of unit_bits, recomputed on the host from the grid's buckets (see
+    tai_coll.solvers.gauss_seidel)."""
     bits = [int(b) for b in grid.bits]
     starts = grid.starts.to_numpy()
     active = int(starts[grid.n_buckets])
     bucket = np.repeat(np.arange(grid.n_buckets), np.diff(starts[: grid.n_buckets + 1]))
     coords = np.stack([bucket & ((1 << bits[0]) - 1), (bucket >> bits[0]) & ((1 << bits[1]) - 1),
                        bucket >> (bits[0] + bits[1])], 1)
-    unit = coords >> np.array(UNIT_BITS)
+    unit = coords >> np.array(unit_bits)
     colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
     unit_id = unit[:, 0] + (unit[:, 1] << 16) + (unit[:, 2] << 32)
     entries = grid.entries.to_numpy()[:active]
@@ -192,18 +202,20 @@ def gauss_seidel_units(grid, n):
     return per_colour, per_unit
 
 
+@pytest.mark.parametrize("unit_bits", [gauss_seidel.CPU_UNIT_BITS, gauss_seidel.GPU_UNIT_BITS], ids=["cpu", "gpu"])
 @pytest.mark.parametrize("spread", [0.3, 40.0])
-def test_gauss_seidel_units_of_a_colour_share_no_particle(spread):
+def test_gauss_seidel_units_of_a_colour_share_no_particle(spread, unit_bits):
     # The coloured passes resolve the units of one colour at the same time: what one unit's
     # pairs touch (its particles and their listed neighbours) must not meet what another's
-    # touch. 30 dense clusters, close together or spread over many table widths (wrap-around).
+    # touch. 30 dense clusters, close together or spread over many table widths (wrap-around);
+    # the units of the CPU and of GPUs.
     rng = np.random.default_rng(11)
     n = 3000
     clusters = rng.uniform(-spread, spread, (30, 3)) - [3.1, 0.2, -7.7]
     x = clusters[np.arange(n) % 30] + rng.uniform(-0.12, 0.12, (n, 3))
     radius = rng.uniform(0.01, 0.02, n)
     grid = grid_of(x, radius, 0.005, forward=True)
-    colour, unit = gauss_seidel_units(grid, n)
+    colour, unit = gauss_seidel_units(grid, n, unit_bits)
     assert np.all(colour >= 0)
     counts = grid.neighbour_count.to_numpy()[:n]
     table = grid.neighbours.to_numpy()[:n]
@@ -219,12 +231,14 @@ def test_gauss_seidel_units_of_a_colour_share_no_particle(spread):
     assert len(pairs) == len(records)
 
 
-@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
-def test_one_projection_pass_separates_every_isolated_pair(method):
+@pytest.mark.parametrize("method", ["gauss-seidel", "gauss-seidel, GPU units", "jacobi"])
+def test_one_projection_pass_separates_every_isolated_pair(method, monkeypatch):
     # Overlapping pairs at rest, far apart from each other and spread over many widths of the
     # grid's table: no contact pass has anything to do, one projection pass must separate
     # every pair exactly (a unit the coloured pass skipped would leave its pair overlapping),
-    # split by inverse mass: each pair's centre of mass stays put.
+    # split by inverse mass: each pair's centre of mass stays put. Also with the units a GPU
+    # gets, run here on the CPU.
+    method = pass_method(method, monkeypatch)
     rng = np.random.default_rng(5)
     pairs, r = 400, 0.01
     centres = rng.uniform(-30.0, 30.0, (pairs, 3)) + [0.0, 40.0, 0.0]
@@ -606,7 +620,6 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     import taichi as ti
     from tai_coll import runtime
     from tai_coll.response.laws import WET_LINEAR
-    from tai_coll.solvers import gauss_seidel
 
     rng = np.random.default_rng(4)
     pairs, r = 300, 0.01

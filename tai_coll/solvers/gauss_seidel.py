@@ -12,39 +12,50 @@ particle's earlier pairs (summing a particle's corrections from several pairs, J
 shoots where two neighbours push it the same way: a particle wedged between others then jumps
 from one side to the other every substep).
 
-Pairs are resolved in parallel by colouring the hash grid's table: units of 4 x 2 x 2 buckets
-(bucket coordinates: the low bits of the cell coordinates, see hash_grid.bucket_of) in eight
-colours by the parity of the unit's coordinates. A pair links particles in neighbouring cells,
-so in neighbouring buckets: resolving a unit's pairs reads and writes particles within one
-bucket of the unit. Two units of one colour are a unit (two buckets or more) apart along some
-axis, so what they touch never overlaps (the table, at least 16 x 8 x 8 buckets, holds an even
-number of units along each axis, so this holds across its wrap-around too). The units of a
-colour run in parallel, each unit's particles in sequence (bucket order, then list order), the
-colours one after the other: the result does not depend on thread timing.
+Pairs are resolved in parallel by colouring the hash grid's table: units of 4 x 2 x 2 buckets on
+the CPU, 2 x 2 x 2 on GPUs (bucket coordinates: the low bits of the cell coordinates, see
+hash_grid.bucket_of) in eight colours by the parity of the unit's coordinates. A pair links
+particles in neighbouring cells, so in neighbouring buckets: resolving a unit's pairs reads and
+writes particles within one bucket of the unit. Two units of one colour are a unit (two buckets
+or more) apart along some axis, so what they touch never overlaps (the table, at least
+16 x 8 x 8 buckets, holds an even number of units along each axis, so this holds across its
+wrap-around too). The units of a colour run in parallel, each unit's particles in sequence
+(bucket order, then list order), the colours one after the other: the result does not depend
+on thread timing (it does depend on the unit shape, so a GPU's result differs from the CPU's
+in the order pairs are met).
 
 The colouring needs the buckets the neighbour lists were built from (HashGrid.build), unchanged.
 """
 
 import taichi as ti
 
+from .. import runtime
 from ..response.laws import pair_normal, respond
 
 vec3 = ti.math.vec3
 ivec3 = ti.math.ivec3
 
 COLOURS = 8
-# A unit's extent in buckets along x, y, z, as powers of two: 4 x 2 x 2 (rows of four buckets
-# along x, which lie together in memory). The table (HashGrid) is a power of two wide along
-# each axis, at least 16 along x and 8 along y and z: an even number of units along each.
-UNIT_BITS = (2, 1, 1)
-ROWS = 1 << (UNIT_BITS[1] + UNIT_BITS[2])  # rows of a unit
+# A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
+# buckets along x, which lie together in memory; larger units measured slower). On a GPU a
+# unit is one thread's sequential work, so the smallest units the colouring allows, 2 x 2 x 2:
+# twice the threads, half the chain of dependent pairs per colour. The table (HashGrid) is a
+# power of two wide along each axis, at least 16 along x and 8 along y and z: an even number
+# of units along each, for either shape.
+CPU_UNIT_BITS = (2, 1, 1)
+GPU_UNIT_BITS = (1, 1, 1)
+
+
+def unit_bits() -> tuple:
+    """The unit shape for the arch Taichi runs on (see CPU_UNIT_BITS)."""
+    return CPU_UNIT_BITS if runtime.info().arch == "cpu" else GPU_UNIT_BITS
 
 
 @ti.func
-def unit_origin(c, u, bits: ivec3) -> ti.i32:
+def unit_origin(c, u, bits: ivec3, unit_bits: ti.template()) -> ti.i32:
     """The first bucket of unit u of colour c (0..7: the parities of the unit's coordinates
     along x, y, z), the unit's lowest corner."""
-    unit = ivec3(UNIT_BITS)
+    unit = ivec3(unit_bits)
     parity = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1)
     per = 1 << (bits - unit - 1)  # units of one colour along each axis
     index = ivec3(u % per.x, (u // per.x) % per.y, u // (per.x * per.y))
@@ -53,11 +64,11 @@ def unit_origin(c, u, bits: ivec3) -> ti.i32:
 
 
 @ti.func
-def row_range(origin, r, bits: ivec3, starts: ti.template()):
+def row_range(origin, r, bits: ivec3, starts: ti.template(), unit_bits: ti.template()):
     """Entries of row r of the unit at origin: its buckets along x, consecutive in the table,
     so one range of entries."""
-    first = origin + ((r % (1 << UNIT_BITS[1])) << bits.x) + ((r >> UNIT_BITS[1]) << (bits.x + bits.y))
-    return starts[first], starts[first + (1 << UNIT_BITS[0])]
+    first = origin + ((r % (1 << unit_bits[1])) << bits.x) + ((r >> unit_bits[1]) << (bits.x + bits.y))
+    return starts[first], starts[first + (1 << unit_bits[0])]
 
 
 ELASTIC, CONTACT, PROJECTION, SETTLE = 0, 1, 2, 3  # what a pass does (see _pass)
@@ -67,10 +78,10 @@ SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
-def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(),
-          bits: ivec3, starts: ti.types.ndarray(), entries: ti.types.ndarray(), neighbours: ti.types.ndarray(),
-          neighbour_count: ti.types.ndarray(), restitution: float, friction: float, wet_friction: float,
-          wet_law: ti.template(), relaxation: float, dt: float,
+def _pass(mode: ti.template(), unit_bits: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(),
+          radius: ti.types.ndarray(), bits: ivec3, starts: ti.types.ndarray(), entries: ti.types.ndarray(),
+          neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(), restitution: float, friction: float,
+          wet_friction: float, wet_law: ti.template(), relaxation: float, dt: float,
           # outputs
           changed: ti.types.ndarray(),
           # in-out
@@ -87,13 +98,13 @@ def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), 
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
         the end of the substep carries approaching velocity into the next."""
     changed[0] = 0
-    units = 1 << (bits.x + bits.y + bits.z - UNIT_BITS[0] - UNIT_BITS[1] - UNIT_BITS[2] - 3)  # per colour
+    units = 1 << (bits.x + bits.y + bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)  # per colour
     for c in ti.static(range(COLOURS)):
         for u in range(units):
-            origin = unit_origin(c, u, bits)
+            origin = unit_origin(c, u, bits, unit_bits)
             found = 0
-            for r in range(ROWS):
-                begin, end = row_range(origin, r, bits, starts)
+            for r in range(1 << (unit_bits[1] + unit_bits[2])):  # the unit's rows
+                begin, end = row_range(origin, r, bits, starts, unit_bits)
                 for slot in range(begin, end):
                     i = entries[slot]
                     ri = radius[i]
@@ -144,21 +155,27 @@ def _pass(mode: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(), 
                 changed[0] = 1
 
 
+def _grid(grid) -> tuple:
+    """The grid's arrays _pass reads, after the unit shape for this arch."""
+    return unit_bits(), grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count
+
+
 def velocity_pass(elastic: bool, x, mass, radius, grid, law: tuple, relaxation: float, dt: float, changed, v_test,
                   x1, v1):
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
     law with e = 0) over the pairs of `grid`'s forward lists; see _pass."""
-    _pass(ELASTIC if elastic else CONTACT, x, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours,
-          grid.neighbour_count, *law, relaxation, dt, changed, v_test, x1, v1)
+    unit, *arrays = _grid(grid)
+    _pass(ELASTIC if elastic else CONTACT, unit, x, mass, radius, *arrays, *law, relaxation, dt, changed, v_test, x1,
+          v1)
 
 
 def settle_pass(x, mass, radius, grid, law: tuple, dt: float, changed, x1, v1):
     """A velocity pass at the final positions, positions unchanged; see _pass."""
-    _pass(SETTLE, x, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count, *law,
-          1.0, dt, changed, v1, x1, v1)
+    unit, *arrays = _grid(grid)
+    _pass(SETTLE, unit, x, mass, radius, *arrays, *law, 1.0, dt, changed, v1, x1, v1)
 
 
 def projection_pass(mass, radius, grid, relaxation: float, dt: float, changed, x1, v1):
     """A projection pass over the pairs of `grid`'s forward lists; see _pass."""
-    _pass(PROJECTION, x1, mass, radius, grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count,
-          0.0, 0.0, 0.0, 0, relaxation, dt, changed, v1, x1, v1)
+    unit, *arrays = _grid(grid)
+    _pass(PROJECTION, unit, x1, mass, radius, *arrays, 0.0, 0.0, 0.0, 0, relaxation, dt, changed, v1, x1, v1)
