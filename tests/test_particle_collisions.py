@@ -231,11 +231,14 @@ def test_gauss_seidel_units_of_a_colour_share_no_particle(spread, unit_bits):
     assert len(pairs) == len(records)
 
 
-@pytest.mark.parametrize("method", ["gauss-seidel", "gauss-seidel, GPU units", "jacobi"])
-def test_one_projection_pass_separates_every_isolated_pair(method, monkeypatch):
+@pytest.mark.parametrize("method, relaxation", [("gauss-seidel", None), ("gauss-seidel", 0.8),
+                                                ("gauss-seidel, GPU units", None), ("jacobi", None)])
+def test_one_projection_pass_separates_every_isolated_pair(method, relaxation, monkeypatch):
     # Overlapping pairs at rest, far apart from each other and spread over many widths of the
-    # grid's table: no contact pass has anything to do, one projection pass must separate
-    # every pair exactly (a unit the coloured pass skipped would leave its pair overlapping),
+    # grid's table: no contact pass has anything to do, and one projection pass must take away
+    # the relaxation's share of every pair's overlap (a unit the coloured pass skipped would
+    # leave its pair as it was): all of it with Gauss-Seidel's default (1) and with Jacobi's
+    # over-relaxation (an isolated pair's share is capped at 1), 0.8 of it under-relaxed,
     # split by inverse mass: each pair's centre of mass stays put. Also with the units a GPU
     # gets, run here on the CPU.
     method = pass_method(method, monkeypatch)
@@ -244,17 +247,19 @@ def test_one_projection_pass_separates_every_isolated_pair(method, monkeypatch):
     centres = rng.uniform(-30.0, 30.0, (pairs, 3)) + [0.0, 40.0, 0.0]
     axis = rng.normal(size=(pairs, 3))
     axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    gap = rng.uniform(1.0, 1.9, pairs)[:, None] * r  # overlaps of 5 % to 50 %
-    x = np.concatenate([centres + 0.5 * gap * axis, centres - 0.5 * gap * axis])
+    gap = rng.uniform(1.0, 1.9, pairs) * r  # overlaps of 5 % to 50 %
+    x = np.concatenate([centres + 0.5 * gap[:, None] * axis, centres - 0.5 * gap[:, None] * axis])
     mass = rng.uniform(1.0, 3.0, 2 * pairs)
     scene = tc.Scene(dt=1 / 1000, substeps=1, gravity=(0.0, 0.0, 0.0))
-    scene.enable_particle_collisions(material=tc.Material(restitution=0.0, friction=0.0), method=method,
-                                     projection_iterations=1)
+    settings = scene.enable_particle_collisions(material=tc.Material(restitution=0.0, friction=0.0), method=method,
+                                                projection_iterations=1, relaxation=relaxation)
+    share = min(1.0, settings.relaxation)
+    assert share == (1.0 if relaxation is None else relaxation)
     scene.add_particles(positions=x, radius=r, mass=mass)
     scene.step(1)
     y = scene.positions()
     a, b = y[:pairs], y[pairs:]
-    assert np.allclose(np.linalg.norm(a - b, axis=1), 2 * r, rtol=1e-4)
+    assert np.allclose(np.linalg.norm(a - b, axis=1), gap + share * (2 * r - gap), rtol=1e-4)
     before = (mass[:pairs, None] * x[:pairs] + mass[pairs:, None] * x[pairs:]) / (mass[:pairs] + mass[pairs:])[:, None]
     after = (mass[:pairs, None] * a + mass[pairs:, None] * b) / (mass[:pairs] + mass[pairs:])[:, None]
     assert np.allclose(after, before, atol=1e-5 * r)
