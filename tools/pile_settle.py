@@ -3,6 +3,11 @@
 for a while, its state measured every `--every` simulated seconds:
 
 - kinetic energy per unit mass (J/kg, the mean of v^2 / 2), speed percentiles (p50, p99, max);
+- how far particles actually moved: the displacement over the last frame and over the whole
+  interval since the previous measurement, each divided by its time (p50, p99, max; mm/s).
+  The stored velocity can differ from the motion: the solver's last pass changes velocities
+  of touching pairs without moving them (tai_coll.solvers.gauss_seidel, settle), so a particle
+  jammed in the pile may carry tens of mm/s that the next substep's contacts take away again;
 - overlap between particles (mean over touching pairs, and max, relative to the radius);
 - the height of the top particle and of the centre of mass (a pile that creeps sinks);
 - particles outside the box (should stay 0) and the wall time so far.
@@ -30,9 +35,19 @@ import bench_pile  # noqa: E402
 from bench import init_taichi, machine_info, write_json  # noqa: E402
 
 
-def measure(scene, half: float, wall_s: float) -> dict:
+def percentiles(values: np.ndarray, name: str) -> dict:
+    """p50, p99 and max of values as {name_p50: ..., ...}."""
+    return {f"{name}_p50": float(np.median(values)), f"{name}_p99": float(np.percentile(values, 99)),
+            f"{name}_max": float(values.max())}
+
+
+def measure(scene, half: float, wall_s: float, frame_start: np.ndarray, frame_s: float, interval_start: np.ndarray,
+            interval_s: float) -> dict:
+    """The state now; frame_start, interval_start: positions a frame and an interval ago."""
     x, v = scene.positions(), scene.velocities()
     speed = np.linalg.norm(v, axis=1)
+    moved_frame = np.linalg.norm(x - frame_start, axis=1) / frame_s
+    moved_interval = np.linalg.norm(x - interval_start, axis=1) / interval_s
     overlap = scene.particle_overlap()
     outside = (np.abs(x[:, [0, 2]]).max(axis=1) > half + 1e-6) | (x[:, 1] < -1e-6)
     return {
@@ -41,6 +56,8 @@ def measure(scene, half: float, wall_s: float) -> dict:
         "speed_p50_m_s": float(np.median(speed)),
         "speed_p99_m_s": float(np.percentile(speed, 99)),
         "speed_max_m_s": float(speed.max()),
+        **percentiles(moved_frame, "moved_last_frame_m_s"),
+        **percentiles(moved_interval, "moved_since_last_measurement_m_s"),
         "overlap_mean": overlap["mean"],
         "overlap_max": overlap["max"],
         "top_m": float(x[:, 1].max()),
@@ -50,10 +67,15 @@ def measure(scene, half: float, wall_s: float) -> dict:
     }
 
 
+def moved(row: dict, name: str) -> str:
+    return "/".join(f"{row[f'{name}_{k}'] * 1e3:.1f}" for k in ("p50", "p99", "max"))
+
+
 def print_row(row: dict) -> None:
     print(f"t {row['t_s']:5.2f} s  KE {row['kinetic_energy_j_per_kg']:8.2e} J/kg  speed p50 "
           f"{row['speed_p50_m_s'] * 1e3:6.1f} p99 {row['speed_p99_m_s'] * 1e3:6.1f} max "
-          f"{row['speed_max_m_s'] * 1e3:7.0f} mm/s  overlap {100 * row['overlap_mean']:4.1f} % / "
+          f"{row['speed_max_m_s'] * 1e3:7.0f} mm/s  moved (frame | interval) p50/p99/max "
+          f"{moved(row, 'moved_last_frame_m_s')} | {moved(row, 'moved_since_last_measurement_m_s')} mm/s  overlap {100 * row['overlap_mean']:4.1f} % / "
           f"{100 * row['overlap_max']:5.1f} %  top {row['top_m']:.4f} m  centre {row['centre_of_mass_height_m']:.4f} m"
           f"  outside {row['outside']}  wall {row['wall_s']:6.0f} s", flush=True)
 
@@ -86,11 +108,17 @@ def main(argv=None) -> int:
     rows = []
     start = time.perf_counter()
     done = 0
+    interval_start = scene.positions()
     while done < total:
         step = min(per, total - done)
-        scene.step(step)
+        if step > 1:
+            scene.step(step - 1)
+        frame_start = scene.positions()
+        scene.step(1)
         done += step
-        rows.append(measure(scene, half, time.perf_counter() - start))
+        rows.append(measure(scene, half, time.perf_counter() - start, frame_start, frame, interval_start,
+                            step * frame))
+        interval_start = scene.positions()
         print_row(rows[-1])
     report = {"machine": machine_info(args), "particles": args.particles, "variant": args.variant,
               "dt": scene.dt, "substeps": scene.substeps, "rows": rows}
