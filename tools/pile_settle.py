@@ -35,10 +35,13 @@ import bench_pile  # noqa: E402
 from bench import init_taichi, machine_info, write_json  # noqa: E402
 
 
+STATS = ("p50", "p99", "max")
+
+
 def percentiles(values: np.ndarray, name: str) -> dict:
-    """p50, p99 and max of values as {name_p50: ..., ...}."""
-    return {f"{name}_p50": float(np.median(values)), f"{name}_p99": float(np.percentile(values, 99)),
-            f"{name}_max": float(values.max())}
+    """p50, p99 and max of speeds in m/s as {name_p50_m_s: ..., ...}."""
+    found = (np.median(values), np.percentile(values, 99), values.max())
+    return {f"{name}_{stat}_m_s": float(value) for stat, value in zip(STATS, found)}
 
 
 def measure(scene, half: float, wall_s: float, frame_start: np.ndarray, frame_s: float, interval_start: np.ndarray,
@@ -53,11 +56,9 @@ def measure(scene, half: float, wall_s: float, frame_start: np.ndarray, frame_s:
     return {
         "t_s": scene.time,
         "kinetic_energy_j_per_kg": float(0.5 * np.mean(speed.astype(np.float64) ** 2)),
-        "speed_p50_m_s": float(np.median(speed)),
-        "speed_p99_m_s": float(np.percentile(speed, 99)),
-        "speed_max_m_s": float(speed.max()),
-        **percentiles(moved_frame, "moved_last_frame_m_s"),
-        **percentiles(moved_interval, "moved_since_last_measurement_m_s"),
+        **percentiles(speed, "speed"),
+        **percentiles(moved_frame, "moved_last_frame"),
+        **percentiles(moved_interval, "moved_since_last_measurement"),
         "overlap_mean": overlap["mean"],
         "overlap_max": overlap["max"],
         "top_m": float(x[:, 1].max()),
@@ -67,15 +68,15 @@ def measure(scene, half: float, wall_s: float, frame_start: np.ndarray, frame_s:
     }
 
 
-def moved(row: dict, name: str) -> str:
-    return "/".join(f"{row[f'{name}_{k}'] * 1e3:.1f}" for k in ("p50", "p99", "max"))
+def mm_s(row: dict, name: str) -> str:
+    """A row's p50/p99/max of `name` in mm/s."""
+    return "/".join(f"{row[f'{name}_{stat}_m_s'] * 1e3:.1f}" for stat in STATS)
 
 
 def print_row(row: dict) -> None:
-    print(f"t {row['t_s']:5.2f} s  KE {row['kinetic_energy_j_per_kg']:8.2e} J/kg  speed p50 "
-          f"{row['speed_p50_m_s'] * 1e3:6.1f} p99 {row['speed_p99_m_s'] * 1e3:6.1f} max "
-          f"{row['speed_max_m_s'] * 1e3:7.0f} mm/s  moved (frame | interval) p50/p99/max "
-          f"{moved(row, 'moved_last_frame_m_s')} | {moved(row, 'moved_since_last_measurement_m_s')} mm/s  overlap {100 * row['overlap_mean']:4.1f} % / "
+    print(f"t {row['t_s']:5.2f} s  KE {row['kinetic_energy_j_per_kg']:8.2e} J/kg  speed p50/p99/max "
+          f"{mm_s(row, 'speed')}  moved (last frame | since the last row) {mm_s(row, 'moved_last_frame')} | "
+          f"{mm_s(row, 'moved_since_last_measurement')} mm/s  overlap {100 * row['overlap_mean']:4.1f} % / "
           f"{100 * row['overlap_max']:5.1f} %  top {row['top_m']:.4f} m  centre {row['centre_of_mass_height_m']:.4f} m"
           f"  outside {row['outside']}  wall {row['wall_s']:6.0f} s", flush=True)
 

@@ -78,10 +78,10 @@ SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
-def _pass(mode: ti.template(), unit_bits: ti.template(), x: ti.types.ndarray(), mass: ti.types.ndarray(),
-          radius: ti.types.ndarray(), bits: ivec3, starts: ti.types.ndarray(), entries: ti.types.ndarray(),
-          neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(), restitution: float, friction: float,
-          wet_friction: float, wet_law: ti.template(), relaxation: float, dt: float,
+def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti.types.ndarray(),
+          entries: ti.types.ndarray(), neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
+          x: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(), restitution: float,
+          friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float, dt: float,
           # outputs
           changed: ti.types.ndarray(),
           # in-out
@@ -156,7 +156,7 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), x: ti.types.ndarray(), 
 
 
 def _grid(grid) -> tuple:
-    """The grid's arrays _pass reads, after the unit shape for this arch."""
+    """_pass's first arguments after the mode: the unit shape for this arch, the grid's arrays."""
     return unit_bits(), grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count
 
 
@@ -164,18 +164,15 @@ def velocity_pass(elastic: bool, x, mass, radius, grid, law: tuple, relaxation: 
                   x1, v1):
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
     law with e = 0) over the pairs of `grid`'s forward lists; see _pass."""
-    unit, *arrays = _grid(grid)
-    _pass(ELASTIC if elastic else CONTACT, unit, x, mass, radius, *arrays, *law, relaxation, dt, changed, v_test, x1,
+    _pass(ELASTIC if elastic else CONTACT, *_grid(grid), x, mass, radius, *law, relaxation, dt, changed, v_test, x1,
           v1)
 
 
 def settle_pass(x, mass, radius, grid, law: tuple, dt: float, changed, x1, v1):
     """A velocity pass at the final positions, positions unchanged; see _pass."""
-    unit, *arrays = _grid(grid)
-    _pass(SETTLE, unit, x, mass, radius, *arrays, *law, 1.0, dt, changed, v1, x1, v1)
+    _pass(SETTLE, *_grid(grid), x, mass, radius, *law, 1.0, dt, changed, v1, x1, v1)
 
 
 def projection_pass(mass, radius, grid, relaxation: float, dt: float, changed, x1, v1):
     """A projection pass over the pairs of `grid`'s forward lists; see _pass."""
-    unit, *arrays = _grid(grid)
-    _pass(PROJECTION, unit, x1, mass, radius, *arrays, 0.0, 0.0, 0.0, 0, relaxation, dt, changed, v1, x1, v1)
+    _pass(PROJECTION, *_grid(grid), x1, mass, radius, 0.0, 0.0, 0.0, 0, relaxation, dt, changed, v1, x1, v1)
