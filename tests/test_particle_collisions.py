@@ -622,7 +622,6 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     # final positions (up to SETTLE_TOUCH beyond r_i + r_j, what a projection leaves):
     # isolated touching pairs that approach stop approaching, with momentum conserved;
     # separating pairs and pairs just out of touch keep their velocities; nothing moves.
-    import taichi as ti
     from tai_coll import runtime
     from tai_coll.response.laws import WET_LINEAR
 
@@ -641,7 +640,7 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     n = 2 * pairs
     grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
     dtype = runtime.float_dtype()
-    x1, v1, changed = on_device(x), on_device(v), ti.ndarray(ti.i32, shape=1)
+    x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
     gauss_seidel.settle_pass(on_device(x), on_device(mass), on_device(np.full(n, r)), grid,
                              (0.0, 0.0, 0.0, WET_LINEAR), 1e-3, changed, x1, v1)
     after = v1.to_numpy().astype(float)

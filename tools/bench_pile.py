@@ -109,7 +109,7 @@ def grid_build_s(scene) -> float:
         else:
             margin = pairs.margin * RADIUS
             pairs.grid.build(p.x, p.radius, p.flags, p.count, 2 * RADIUS + margin, margin,
-                             forward=pairs.method == "gauss-seidel")
+                             forward=pairs.forward_lists)
         ti.sync()
         times.append(time.perf_counter() - t)
     return float(np.median(times))

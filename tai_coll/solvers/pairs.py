@@ -374,6 +374,12 @@ class ParticleCollisions:
         self.changed = ti.ndarray(ti.i32, shape=1)
         self._lists_key = None
 
+    @property
+    def forward_lists(self) -> bool:
+        """Whether the neighbour lists hold each pair once (HashGrid.build's forward lists):
+        what the Gauss-Seidel passes read; Jacobi's read every particle's full list."""
+        return self.method == "gauss-seidel"
+
     def _changed(self) -> bool:
         """Whether the last pass had anything to do (a read from the device)."""
         return bool(self.changed[0])
@@ -440,7 +446,7 @@ class ParticleCollisions:
         self._reorder(particles)  # (swaps the store's arrays)
         _predict(particles.x, particles.v, particles.flags, *rest)
         self.grid.build(self.x1, particles.radius, particles.flags, n, 2.0 * scene._max_radius() + reach + skin,
-                        reach + skin, forward=self.method == "gauss-seidel")
+                        reach + skin, forward=self.forward_lists)
         self._sorted_key = (particles.edits, n)
         if keep:
             _mark_listed(self.x1, particles.flags, n, self.listed_at)
