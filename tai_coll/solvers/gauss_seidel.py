@@ -30,12 +30,13 @@ The colouring needs the buckets the neighbour lists were built from (HashGrid.bu
 import taichi as ti
 
 from .. import runtime
-from ..response.laws import pair_normal, respond
+from ..response.laws import TINY, pair_normal, respond
 
 vec3 = ti.math.vec3
 ivec3 = ti.math.ivec3
 
 COLOURS = 8
+COINCIDENT = 100.0 * TINY  # centres closer than this (m) skip may_approach's test (above pair_normal's TINY)
 # A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
 # buckets along x, which lie together in memory; larger units measured slower). On a GPU a
 # unit is one thread's sequential work, so the smallest units the colouring allows, 2 x 2 x 2:
@@ -71,6 +72,15 @@ def row_range(origin, r, bits: ivec3, starts: ti.template(), unit_bits: ti.templ
     return starts[first], starts[first + (1 << unit_bits[0])]
 
 
+@ti.func
+def may_approach(v_rel: vec3, d: vec3, d2):
+    """Whether the law can change a pair with relative velocity v_rel and centre offset d
+    (|d|^2 = d2): v_N = v_rel . d / |d| < 0, told without the normal's square root and
+    division (most touching pairs of a resting pile are not approaching); a pair with
+    (nearly) coincident centres always goes on to the law (pair_normal picks its normal)."""
+    return (v_rel.dot(d) < 0.0) | (d2 <= COINCIDENT * COINCIDENT)
+
+
 ELASTIC, CONTACT, PROJECTION, SETTLE = 0, 1, 2, 3  # what a pass does (see _pass)
 # SETTLE passes count pairs as touching up to this fraction beyond r_i + r_j (a projection
 # leaves them at r_i + r_j, give or take round-off)
@@ -96,7 +106,11 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti
         the velocities following the positions (v1 += dx / dt); x and v_test unused.
     SETTLE (v_test is v1): the law (with restitution) on the velocities of the pairs touching
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
-        the end of the substep carries approaching velocity into the next."""
+        the end of the substep carries approaching velocity into the next.
+    Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
+    Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
+    CPU): the units running at once share no particle. Divisions by the pair's mass sum are
+    kept off the chain of dependent pairs (1 / (m_i + m_j) depends on the masses alone)."""
     changed[0] = 0
     units = 1 << (bits.x + bits.y + bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)  # per colour
     for c in ti.static(range(COLOURS)):
@@ -117,27 +131,29 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti
                         xj = x1[j]
                         reach = ri + radius[j]
                         touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
-                        if (xi - xj).norm_sqr() < touch * touch:
+                        d = xi - xj
+                        d2 = d.norm_sqr()
+                        if d2 < touch * touch and (ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
                             nrm, dist = pair_normal(xi, xj, i, j)
                             mj = mass[j]
                             if ti.static(mode == PROJECTION):
                                 found = 1
-                                move = (relaxation * (reach - dist) / (mi + mj)) * nrm
+                                move = ((reach - dist) * (relaxation / (mi + mj))) * nrm
                                 xi += mj * move
                                 moved += mj * move
                                 x1[j] = xj - mi * move
-                                v1[j] -= (mi / dt) * move
+                                v1[j] = v1[j] - (mi / dt) * move
                             else:
                                 v_rel = vi - v_test[j]
                                 v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
                                 if dvn > 0.0:
                                     found = 1
-                                    change = relaxation * (v_new - v_rel) / (mi + mj)
+                                    change = (v_new - v_rel) * (relaxation / (mi + mj))
                                     vi += mj * change
                                     vj = v_test[j] - mi * change
                                     v_test[j] = vj
                                     if ti.static(mode == ELASTIC):
-                                        v1[j] -= mi * change
+                                        v1[j] = v1[j] - mi * change
                                         x1[j] = xj - (dt * mi) * change
                                         xi += (dt * mj) * change
                                     elif ti.static(mode == CONTACT):
@@ -145,9 +161,9 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti
                                         xi = x[i] + dt * vi
                     x1[i] = xi
                     if ti.static(mode == PROJECTION):
-                        v1[i] += moved / dt
+                        v1[i] = v1[i] + moved / dt
                     elif ti.static(mode == ELASTIC):
-                        v1[i] += vi - v_test[i]
+                        v1[i] = v1[i] + (vi - v_test[i])
                         v_test[i] = vi
                     else:
                         v_test[i] = vi
