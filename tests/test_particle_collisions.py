@@ -279,7 +279,7 @@ def test_particle_collisions_need_a_material():
     assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (4, 4, 1.5)
     defaults = scene.enable_particle_collisions()
     assert defaults.method == "gauss-seidel"
-    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (2, 2, 1.0)
+    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (1, 2, 1.0)
 
 
 def test_full_neighbour_lists_are_warned_about_once():

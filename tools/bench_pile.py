@@ -4,7 +4,7 @@ N particles of radius 5 mm start on a jittered lattice (spacing 2.3 r, about 54 
 a box of five planes and fall into a pile, with particle-particle collisions on
 (tai_coll.solvers.pairs), in two variants:
 - impulse: the default ImpulseSolver, dt = 1/1000 s, 5 substeps per frame, pairs resolved
-  by the default coloured Gauss-Seidel passes (2 contact + 2 projection);
+  by the default coloured Gauss-Seidel passes (1 contact + 2 projection);
 - jacobi: the same with method="jacobi" (4 + 4 Jacobi passes): the baseline for the above;
 - dem: the penalty variant (DEM spring-dashpots between particles, the model NVIDIA Warp's
   DEM example uses), PenaltySolver(hertz=200) critically damped (a 1 m/s impact sinks

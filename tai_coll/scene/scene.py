@@ -94,7 +94,7 @@ class Scene:
         friction from `material`, then the colliders. With a tc.PenaltySolver, pairs are
         DEM spring-dashpots with the solver's stiffness and damping (reduced mass) and the
         material's friction. Options: method ("gauss-seidel", the default, or "jacobi": how
-        the passes visit the pairs), iterations (contact passes, default 2 Gauss-Seidel, 4
+        the passes visit the pairs), iterations (contact passes, default 1 Gauss-Seidel, 4
         Jacobi), projection_iterations (2 / 4), relaxation (1.0 / 1.5), margin (0.25 of the
         largest radius), skin (0: extra reach that lets neighbour lists be kept between substeps),
         reorder (True: the store kept in the grid's cell order; public order never changes).

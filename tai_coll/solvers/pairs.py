@@ -21,9 +21,9 @@ momentum is conserved exactly. PHYSICS.md 3's elastic-then-contact split carries
 The passes visit the pairs in one of two ways (`method`):
 - "gauss-seidel" (default): one pair after another, each pair's change applied to both
   particles before the next pair is seen, in parallel over a colouring of the grid
-  (gauss_seidel.py). Support climbs a pile within a pass: 2 contact, 2 projection and a
+  (gauss_seidel.py). Support climbs a pile within a pass: 1 contact, 2 projection and a
   settle pass leave a deep pile a third of the overlap 4 + 4 Jacobi passes leave, and it
-  settles sooner, at about the same cost (a few of its jammed particles keep jittering: see
+  settles sooner, in less time (a few of its jammed particles keep jittering: see
   the README's stillness figures).
 - "jacobi": every particle reads the previous iterate, in parallel. A plain Jacobi sum
   over-corrects a particle with many contacts and over-compresses piles; each pair's share is
@@ -56,7 +56,10 @@ vec4 = ti.math.vec4
 REORDER_INTERVAL = 8
 # How the passes visit the pairs, and the defaults of each: (contact passes, projection passes,
 # relaxation). Gauss-Seidel converges in fewer passes (see gauss_seidel.py).
-METHODS = {"gauss-seidel": (2, 2, 1.0), "jacobi": (4, 4, 1.5)}
+METHODS = {"gauss-seidel": (1, 2, 1.0), "jacobi": (4, 4, 1.5)}
+# (Gauss-Seidel's second contact pass left the 100k benchmark pile as it was after 1.0 to 2.5 s:
+# kinetic energy, speeds and overlap within a few per cent, for a fifth more time per substep;
+# see the README's tuning table.)
 
 
 @ti.kernel
@@ -301,7 +304,7 @@ class ParticleCollisions:
     material: restitution and friction between particles (tc.Material).
     method: "gauss-seidel" (default) or "jacobi": how the passes visit the pairs (see the
         module's notes).
-    iterations: contact passes per substep (default 2 Gauss-Seidel, 4 Jacobi); more resolve
+    iterations: contact passes per substep (default 1 Gauss-Seidel, 4 Jacobi); more resolve
         piles better, cost more.
     projection_iterations: position passes removing remaining overlap (default 2
         Gauss-Seidel, 4 Jacobi).
