@@ -36,7 +36,6 @@ vec3 = ti.math.vec3
 ivec3 = ti.math.ivec3
 
 COLOURS = 8
-COINCIDENT = 100.0 * TINY  # centres closer than this (m) skip may_approach's test (above pair_normal's TINY)
 # A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
 # buckets along x, which lie together in memory; larger units measured slower). On a GPU a
 # unit is one thread's sequential work, so the smallest units the colouring allows, 2 x 2 x 2:
@@ -76,9 +75,9 @@ def row_range(origin, r, bits: ivec3, starts: ti.template(), unit_bits: ti.templ
 def may_approach(v_rel: vec3, d: vec3, d2):
     """Whether the law can change a pair with relative velocity v_rel and centre offset d
     (|d|^2 = d2): v_N = v_rel . d / |d| < 0, told without the normal's square root and
-    division (most touching pairs of a resting pile are not approaching); a pair with
-    (nearly) coincident centres always goes on to the law (pair_normal picks its normal)."""
-    return (v_rel.dot(d) < 0.0) | (d2 <= COINCIDENT * COINCIDENT)
+    division (most touching pairs of a resting pile are not approaching); a pair whose
+    centres are within pair_normal's TINY goes on to the law (pair_normal picks its normal)."""
+    return (v_rel.dot(d) < 0.0) | (d2 <= TINY * TINY)
 
 
 ELASTIC, CONTACT, PROJECTION, SETTLE = 0, 1, 2, 3  # what a pass does (see _pass)
