@@ -299,6 +299,14 @@ def test_particle_collisions_need_a_material():
     defaults = scene.enable_particle_collisions()
     assert defaults.method == "gauss-seidel"
     assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (1, 2, 1.0)
+    assert not defaults.tangential_springs
+    with pytest.raises(ValueError, match="tangential_springs: DEM pairs only"):
+        scene.enable_particle_collisions(tangential_springs=True)  # an impulse scene
+    dem = tc.Scene(solver=tc.PenaltySolver(hertz=100.0))
+    with pytest.raises(TypeError, match="tangential_springs must be True or False"):
+        dem.enable_particle_collisions(tangential_springs="yes")
+    with pytest.raises(ValueError, match="tangential_ratio"):
+        dem.enable_particle_collisions(tangential_springs=True, tangential_ratio=0.0)
 
 
 def test_full_neighbour_lists_are_warned_about_once():
@@ -437,6 +445,87 @@ def test_dem_pair_damping_ratio_sets_the_rebound():
     assert np.exp(-zeta * np.pi / np.sqrt(1 - zeta ** 2)) < e
     assert (v[1, 0] - v[0, 0]) / 1.0 == pytest.approx(e, rel=0.02)
     assert np.allclose(v.sum(axis=0), 0.0, atol=1e-12)
+
+
+def sphere_incline(theta_deg, mu, springs, *, top_first=False):
+    """A particle B (1 kg) resting on a heavy one A (1000 kg) on a floor, gravity tilted by
+    theta along x: the contact A-B is an incline of angle theta. DEM pairs, 200 Hz per pair
+    (k = m_pair (2 pi 200)^2), critically damped; the floor holds A by friction 2."""
+    th = np.radians(theta_deg)
+    scene = tc.Scene(gravity=(9.81 * np.sin(th), -9.81 * np.cos(th), 0.0), dt=1e-4, substeps=10,
+                     solver=tc.PenaltySolver(hertz=200.0, damping_ratio=1.0))
+    scene.add_collider(tc.Plane(point=(0, 0, 0), normal=(0, 1, 0)), material=tc.Material(friction=2.0))
+    settings = scene.enable_particle_collisions(material=tc.Material(friction=mu), tangential_springs=springs)
+    r = 0.05
+    x, mass = np.array([[0, r, 0], [0, 3 * r, 0]]), np.array([1000.0, 1.0])
+    if top_first:  # B in the first slot: the store's reordering by cell swaps the two
+        x, mass = x[::-1], mass[::-1]
+    scene.add_particles(positions=x, radius=r, mass=mass)
+    a, b = (1, 0) if top_first else (0, 1)
+    return scene, settings, a, b
+
+
+def slip(scene, a, b):
+    x, v = scene.positions(), scene.velocities()
+    return x[b, 0] - x[a, 0], v[b, 0] - v[a, 0]
+
+
+@pytest.mark.parametrize("top_first", [False, True])
+def test_tangential_spring_holds_a_contact_still_where_regularised_friction_creeps(top_first):
+    # mu = 0.5 > tan 20 deg: the contact holds. With a spring it stretches to
+    # m g sin(theta) / k_t (k_t = 2/7 k_n) and stays there (B's offset from A also holds the
+    # tenths of a micrometre the contact turned while B settled onto A, within 5 %); the
+    # regularised friction cancels
+    # the tangential velocity every substep after the load has moved it for one, so the
+    # contact creeps at g sin(theta) dt. top_first: the store's reordering swaps the two
+    # particles every 8 substeps, and the springs must move with them.
+    theta, dt = 20.0, 1e-4
+    load = 9.81 * np.sin(np.radians(theta))
+    k_t = 2.0 / 7.0 * (1000.0 / 1001.0) * (2 * np.pi * 200.0) ** 2  # per unit mass of B
+    scene, settings, a, b = sphere_incline(theta, 0.5, True, top_first=top_first)
+    scene.step(60)  # 0.06 s
+    early, _ = slip(scene, a, b)
+    scene.step(100)
+    late, speed = slip(scene, a, b)
+    assert early == pytest.approx(load / k_t, rel=0.05)
+    assert abs(late - early) < 1e-3 * early and abs(speed) < 1e-6
+    assert settings.history_overflow == 0
+    scene, _, a, b = sphere_incline(theta, 0.5, False, top_first=top_first)
+    scene.step(60)
+    early, _ = slip(scene, a, b)
+    scene.step(100)
+    late, _ = slip(scene, a, b)
+    assert (late - early) / 0.1 == pytest.approx(load * dt, rel=0.05)
+
+
+@pytest.mark.parametrize("springs", [True, False])
+def test_contact_beyond_its_friction_slides_at_the_incline_law(springs):
+    # mu = 0.2 < tan 20 deg: B slides off A with a = g (sin - mu cos) (A is 1000 times heavier;
+    # after 0.02 s B has moved 0.3 mm, 0.6 % of its radius along A's surface).
+    theta, mu = 20.0, 0.2
+    th = np.radians(theta)
+    expected = 9.81 * (np.sin(th) - mu * np.cos(th))
+    scene, _, a, b = sphere_incline(theta, mu, springs)
+    scene.step(20)
+    _, speed = slip(scene, a, b)
+    assert speed / scene.time == pytest.approx(expected, rel=0.02)
+
+
+def test_tangential_springs_conserve_momentum():
+    # A glancing DEM contact of masses 1 and 3 with friction by springs, no gravity: each
+    # particle keeps the pair's spring, both springs exactly opposite, so are the forces.
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=2e-5, substeps=10,
+                     solver=tc.PenaltySolver(hertz=100.0, damping_ratio=0.3))
+    scene.enable_particle_collisions(material=tc.Material(friction=0.6), tangential_springs=True)
+    v0 = np.array([[1.0, 0.0, 0.2], [-0.3, 0.1, 0.0]])
+    mass = np.array([1.0, 3.0])
+    scene.add_particles(positions=[[-0.06, 0.04, 0.0], [0.04, 0.0, 0.01]], velocities=v0, mass=mass, radius=0.05)
+    scene.step(150)
+    v = scene.velocities()
+    assert np.allclose(mass @ v, mass @ v0, atol=1e-12)
+    assert scene.particle_overlap()["pairs"] == 0
+    tangential = v[0] - v0[0]
+    assert np.linalg.norm(tangential - tangential.dot([1, 0, 0]) * np.array([1, 0, 0])) > 1e-3  # friction acted
 
 
 @pytest.mark.parametrize("ground", ["height_field", "triangle_mesh", "mesh_sdf"])

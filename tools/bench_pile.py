@@ -9,7 +9,9 @@ a box of five planes and fall into a pile, with particle-particle collisions on
 - dem: the penalty variant (DEM spring-dashpots between particles, the model NVIDIA Warp's
   DEM example uses), PenaltySolver(hertz=200) critically damped (a 1 m/s impact sinks
   0.8 mm, 16 % of the radius; a particle rests 6 um deep per layer above it), at its
-  recommended dt = 75 us: 13 times the steps of the impulse variant for the same time.
+  recommended dt = 75 us: 13 times the steps of the impulse variant for the same time;
+- dem-springs: the same with friction by tangential springs (tangential_springs=True:
+  static friction that holds a contact without creeping).
 Every frame from the start is timed (kernels compiled beforehand on a small pile), so the
 rates cover the fall, the impacts and, given enough frames, the dense pile:
 - particle-steps per second over all timed frames (total), of the median frame, and of the
@@ -29,7 +31,7 @@ import numpy as np
 
 RADIUS = 0.005
 SUBSTEPS = 5
-DT = {"impulse": 1.0 / 1000.0, "jacobi": 1.0 / 1000.0, "dem": 7.5e-5}
+DT = {"impulse": 1.0 / 1000.0, "jacobi": 1.0 / 1000.0, "dem": 7.5e-5, "dem-springs": 7.5e-5}
 DEM_HERTZ = 200.0
 
 
@@ -55,14 +57,15 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", 
     reorder: the pair solver's reordering of the store by cell (on by default)."""
     if half is None:
         half = pile_half(n)
-    solver = tc.PenaltySolver(hertz=DEM_HERTZ) if variant == "dem" else None
+    solver = tc.PenaltySolver(hertz=DEM_HERTZ) if variant.startswith("dem") else None
     scene = tc.Scene(dt=DT[variant], substeps=SUBSTEPS, solver=solver)
     walls = [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),
              ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]
     material = tc.Material(restitution=0.2, friction=0.4)
     for point, normal in walls:
         scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
-    method = {"dem": {}, "jacobi": {"method": "jacobi"}}.get(variant, {"method": "gauss-seidel"})
+    method = {"dem": {}, "dem-springs": {"tangential_springs": True},
+              "jacobi": {"method": "jacobi"}}.get(variant, {"method": "gauss-seidel"})
     scene.enable_particle_collisions(material=material, reorder=reorder, **method)
     x = pile_positions(n, half)
     if shuffled:
@@ -82,6 +85,8 @@ def state_bytes(scene) -> int:
     if not hasattr(scene.solver, "kernel_constants"):  # the impulse variant's work arrays
         arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts]
         arrays += [pairs.listed_at] if pairs.listed_at is not None else []  # with a skin only
+    if pairs.history is not None:  # tangential springs, and the second set they are permuted into
+        arrays += list(pairs.history) + list(pairs._history_spare)
     for a in arrays + pairs.grid.arrays():
         total += a.to_numpy().nbytes
     return total

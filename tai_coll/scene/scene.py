@@ -97,12 +97,17 @@ class Scene:
         the passes visit the pairs), iterations (contact passes, default 1 Gauss-Seidel, 4
         Jacobi), projection_iterations (2 / 4), relaxation (1.0 / 1.5), margin (0.25 of the
         largest radius), skin (0: extra reach that lets neighbour lists be kept between substeps),
-        reorder (True: the store kept in the grid's cell order; public order never changes).
+        reorder (True: the store kept in the grid's cell order; public order never changes),
+        tangential_springs (False; DEM pairs only: friction by a spring per contact, Cundall and
+        Strack, so static friction holds without creeping) and tangential_ratio (2/7: k_t / k_n).
         See tai_coll.solvers.pairs. Returns the settings object."""
         self._check_runtime()
         if not (hasattr(self.solver, "resolve_candidates") or hasattr(self.solver, "kernel_constants")):
             raise TypeError(f"particle collisions need tc.ImpulseSolver or tc.PenaltySolver; "
                             f"got {type(self.solver).__name__}")
+        if options.get("tangential_springs") and not hasattr(self.solver, "kernel_constants"):
+            raise ValueError("tangential_springs: DEM pairs only (the scene's solver must be a tc.PenaltySolver; "
+                             f"got {type(self.solver).__name__}, whose pair impulses hold statically already)")
         from ..solvers.pairs import ParticleCollisions
 
         self._pairs = ParticleCollisions(material=material, **options)
