@@ -492,9 +492,9 @@ class ParticleCollisions:
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
         self.listed_at = None  # allocated when a skin keeps the lists (see _predict_and_list)
         self._stand_in = ti.Vector.ndarray(4, float, shape=1)  # for listed_at without a skin
-        # for the springs' arrays without tangential springs (never read)
-        self._stand_in_id = ti.ndarray(ti.i32, shape=(1, HISTORY))
-        self._stand_in_spring = ti.Vector.ndarray(3, float, shape=(1, HISTORY))
+        # the springs' arrays without tangential springs (never read)
+        self._no_springs = (ti.ndarray(ti.i32, shape=1), ti.ndarray(ti.i32, shape=(1, HISTORY)),
+                            ti.Vector.ndarray(3, float, shape=(1, HISTORY)))
         self.changed = ti.ndarray(ti.i32, shape=1)
         self._lists_key = None
 
@@ -552,7 +552,7 @@ class ParticleCollisions:
         return int(self._history_overflow[0])
 
     def _springs(self, particles):
-        """The tangential springs' arrays as the store stands: allocated with the store's
+        """Fit the tangential springs' arrays (self.history) to the store: allocated with its
         capacity, and emptied when the store was written from outside (added, moved or
         removed particles: a spring is only carried between the substeps of a run)."""
         key = (particles.edits, particles.capacity)
@@ -565,7 +565,6 @@ class ParticleCollisions:
         if self._history_key != key:
             self.history[0].fill(0)
             self._history_key = key
-        return self.history
 
     def _penalty_substep(self, scene, dt: float):
         particles = scene._particles
@@ -575,7 +574,7 @@ class ParticleCollisions:
         if springs:
             self._springs(particles)  # before the reordering, which moves them with the store
         self._reorder(particles)
-        history = self.history if springs else (self.contacts, self._stand_in_id, self._stand_in_spring)
+        history = self.history if springs else self._no_springs
         query = self._sort(particles, particles.x, 2.0 * scene._max_radius())
         m = self.material
         _pair_forces(particles.v, particles.mass, particles.flags, n, *query, dt, *scene.solver.kernel_constants(),
