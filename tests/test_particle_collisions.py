@@ -357,11 +357,14 @@ def test_dem_pair_undamped_is_elastic_and_conserves_momentum():
     assert scene.particle_overlap()["pairs"] == 0
 
 
-def test_dem_forces_on_a_crowded_particle_match_the_spring_law():
+@pytest.mark.parametrize("springs", [False, True])
+def test_dem_forces_on_a_crowded_particle_match_the_spring_law(springs):
     # A big particle touched by 40 small ones (more than the kernel's batch of touching
     # neighbours) and a few small ones touching each other, all at rest, no gravity: after one
     # substep every velocity is dt/m times the sum of k overlap n over its contacts (the
-    # damper and friction see zero relative velocity), with k = stiffness as given.
+    # damper and friction see zero relative velocity), with k = stiffness as given. With
+    # tangential springs (new contacts: zero springs) the big one keeps 12 of its 40 and
+    # counts the other 28 as overflow.
     rng = np.random.default_rng(5)
     k, dt = 3e3, 1e-5
     directions = rng.normal(size=(40, 3))
@@ -372,7 +375,7 @@ def test_dem_forces_on_a_crowded_particle_match_the_spring_law():
     mass = np.concatenate([[5.0], rng.uniform(0.5, 2.0, 40)])
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1,
                      solver=tc.PenaltySolver(stiffness=k, damping=0.0))
-    scene.enable_particle_collisions(material=tc.Material(friction=0.5))
+    settings = scene.enable_particle_collisions(material=tc.Material(friction=0.5), tangential_springs=springs)
     scene.add_particles(positions=x, radius=radius, mass=mass)
     scene.step(1)
     d = x[:, None, :] - x[None, :, :]
@@ -386,6 +389,7 @@ def test_dem_forces_on_a_crowded_particle_match_the_spring_law():
     expected = dt * force / mass[:, None]
     assert np.allclose(scene.velocities(), expected, rtol=1e-4, atol=1e-9 * np.abs(expected).max())
     assert np.allclose((mass[:, None] * scene.velocities()).sum(axis=0), 0.0, atol=1e-12)
+    assert settings.history_overflow == (40 - 12 if springs else 0)
 
 
 def test_particle_overlap_matches_brute_force():
