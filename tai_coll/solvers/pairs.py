@@ -469,7 +469,7 @@ class ParticleCollisions:
         self.tangential_springs = bool(tangential_springs)
         self.tangential_ratio = validate.real("tangential_ratio", tangential_ratio, low=0.0, low_open=True)
         self.history = None  # the springs' arrays (count, partner ids, springs), with tangential_springs
-        self._history_key = None  # the store's (edits, capacity) the springs describe
+        self._history_key = None  # the store's `edits` the springs describe (growth counts as an edit)
         self._history_overflow = ti.ndarray(ti.i32, shape=1)
         self._history_overflow.fill(0)
         self.grid = HashGrid()
@@ -533,7 +533,7 @@ class ParticleCollisions:
                 # the springs move with their particles (partners are named by public id)
                 _permute_history(self.grid.entries, particles.count, *self.history, *self._history_spare)
                 self.history, self._history_spare = self._history_spare, self.history
-                self._history_key = (particles.edits, particles.capacity)
+                self._history_key = particles.edits
             self._since_reorder = 0
 
     def substep(self, scene, dt: float):
@@ -555,7 +555,7 @@ class ParticleCollisions:
         """Fit the tangential springs' arrays (self.history) to the store: allocated with its
         capacity, and emptied when the store was written from outside (added, moved or
         removed particles: a spring is only carried between the substeps of a run)."""
-        key = (particles.edits, particles.capacity)
+        key = particles.edits
         if self.history is None or self.history[0].shape[0] != particles.capacity:
             shapes = (particles.capacity, HISTORY)
             make = lambda: (ti.ndarray(ti.i32, shape=particles.capacity), ti.ndarray(ti.i32, shape=shapes),
@@ -580,8 +580,6 @@ class ParticleCollisions:
         _pair_forces(particles.v, particles.mass, particles.flags, n, *query, dt, *scene.solver.kernel_constants(),
                      m.static_friction, m.friction, m.wet_friction, springs, self.tangential_ratio, particles.ids,
                      *history, self._history_overflow, self.delta)
-        if springs:
-            self._history_key = (particles.edits, particles.capacity)
         scene.solver.advance(scene, dt, 1, force=self.delta)
 
     def _predict_and_list(self, scene, dt: float, reach: float, skin: float):
