@@ -497,7 +497,7 @@ def print_pile_table(rows):
               f"{100 * o['mean']:>7.1f}% / {100 * o['max']:>5.1f}%")
     print("(M p-steps/s: over all timed frames; median fr.: of the median frame; last 1/4: of the median "
           "frame of the last quarter, the densest state reached; sim s/s: simulated seconds per second; "
-          "grid: sort + neighbour lists (impulse, jacobi), sort alone (dem, dem-springs))")
+          "grid: sort + neighbour lists (impulse, jacobi), sort alone (dem variants))")
     for r in rows:
         if "speedup_over_no_reorder" in r:
             print(f"pile of {r['particles']:,} added in random order: reordering the store by cell "
@@ -546,7 +546,8 @@ def main(argv=None):
     parser.add_argument("--pile-variants", default="impulse,jacobi,dem,reorder",
                         help="comma-separated pile variants: impulse (default solver: Gauss-Seidel pair passes), "
                              "jacobi (the same, Jacobi passes), dem (penalty pairs), dem-springs (the same with "
-                             "tangential springs; not in the default list), "
+                             "tangential springs), dem-rolling (springs, spinning particles, rolling resistance; "
+                             "these two not in the default list), "
                              "reorder (100,000 only: the impulse pile added in random order, the store's "
                              "reordering by cell off, then on)")
     parser.add_argument("--pile-seconds-reorder", type=float, default=0.2,
@@ -554,9 +555,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     args.pile = args.pile or args.pile_only
     args.pile_variants = [v.strip() for v in args.pile_variants.split(",") if v.strip()]
-    unknown = sorted(set(args.pile_variants) - {"impulse", "jacobi", "dem", "dem-springs", "reorder"})
+    unknown = sorted(set(args.pile_variants) - {"impulse", "jacobi", "dem", "dem-springs", "dem-rolling", "reorder"})
     if unknown or not args.pile_variants:
-        parser.error("--pile-variants must list some of impulse, jacobi, dem, dem-springs, reorder; "
+        parser.error("--pile-variants must list some of impulse, jacobi, dem, dem-springs, dem-rolling, reorder; "
                      f"got {unknown or 'nothing'}")
     if args.json is None:
         args.json = str(ROOT / "bench_results" / ("bench_pile.json" if args.pile_only else "bench.json"))

@@ -11,7 +11,10 @@ a box of five planes and fall into a pile, with particle-particle collisions on
   0.8 mm, 16 % of the radius; a particle rests 6 um deep per layer above it), at its
   recommended dt = 75 us: 13 times the steps of the impulse variant for the same time;
 - dem-springs: the same with friction by tangential springs (tangential_springs=True:
-  static friction that holds a contact without creeping).
+  static friction that holds a contact without creeping);
+- dem-rolling: dem-springs with particles that spin (PenaltySolver(rotation=True)) and
+  rolling resistance (rolling_friction=ROLLING_FRICTION, a rolling spring per contact):
+  grains that roll and topple, and stop.
 Every frame from the start is timed (kernels compiled beforehand on a small pile), so the
 rates cover the fall, the impacts and, given enough frames, the dense pile:
 - particle-steps per second over all timed frames (total), of the median frame, and of the
@@ -31,8 +34,9 @@ import numpy as np
 
 RADIUS = 0.005
 SUBSTEPS = 5
-DT = {"impulse": 1.0 / 1000.0, "jacobi": 1.0 / 1000.0, "dem": 7.5e-5, "dem-springs": 7.5e-5}
+DT = {"impulse": 1.0 / 1000.0, "jacobi": 1.0 / 1000.0, "dem": 7.5e-5, "dem-springs": 7.5e-5, "dem-rolling": 7.5e-5}
 DEM_HERTZ = 200.0
+ROLLING_FRICTION = 0.1  # dem-rolling's mu_r (particles and walls): a lever arm of 0.1 r
 
 
 def pile_positions(n: int, half: float, seed: int = 0) -> np.ndarray:
@@ -57,14 +61,15 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", 
     reorder: the pair solver's reordering of the store by cell (on by default)."""
     if half is None:
         half = pile_half(n)
-    solver = tc.PenaltySolver(hertz=DEM_HERTZ) if variant.startswith("dem") else None
+    rotation = variant == "dem-rolling"
+    solver = tc.PenaltySolver(hertz=DEM_HERTZ, rotation=rotation) if variant.startswith("dem") else None
     scene = tc.Scene(dt=DT[variant], substeps=SUBSTEPS, solver=solver)
     walls = [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),
              ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]
-    material = tc.Material(restitution=0.2, friction=0.4)
+    material = tc.Material(restitution=0.2, friction=0.4, rolling_friction=ROLLING_FRICTION if rotation else 0.0)
     for point, normal in walls:
         scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
-    method = {"dem": {}, "dem-springs": {"tangential_springs": True},
+    method = {"dem": {}, "dem-springs": {"tangential_springs": True}, "dem-rolling": {"tangential_springs": True},
               "jacobi": {"method": "jacobi"}}.get(variant, {"method": "gauss-seidel"})
     scene.enable_particle_collisions(material=material, reorder=reorder, **method)
     x = pile_positions(n, half)
@@ -87,6 +92,8 @@ def state_bytes(scene) -> int:
         arrays += [pairs.listed_at] if pairs.listed_at is not None else []  # with a skin only
     if pairs.history is not None:  # tangential springs, and the second set they are permuted into
         arrays += list(pairs.history) + list(pairs._history_spare)
+    if particles.w is not None:  # spin (rotation), its second set, and the pair torques
+        arrays += [particles.w, pairs.torque] + ([particles._w_spare] if particles._w_spare is not None else [])
     for a in arrays + pairs.grid.arrays():
         total += a.to_numpy().nbytes
     return total

@@ -18,6 +18,9 @@ FIELD_FORCE = 2     # f(x) = f(d) n: added to the particle's forces
 PROFILE_EXPONENTIAL = 0  # f(d) = strength exp(-decay d)
 PROFILE_LINEAR = 1       # f(d) = max(0, strength - decay d)
 
+# A particle is a solid sphere: moment of inertia I = 2/5 m r^2 (with rotation).
+SPHERE_INERTIA = 0.4
+
 # Backward Euler or symplectic Euler for the normal spring-damper.
 SYMPLECTIC_EULER = 0
 BACKWARD_EULER = 1
@@ -68,6 +71,55 @@ def friction_force(vt_pred: vec3, fn, mass, dt, static_friction, kinetic_frictio
         slide = ti.min(need, (kinetic_friction + viscous_friction * speed) * fn)
         force = (slide / need) * f_stop
     return force
+
+
+@ti.func
+def rolling_torque(w_roll: vec3, fn, lever, inertia, dt, rolling_friction) -> vec3:
+    """Rolling resistance as a torque (a particle that spins, PenaltySolver(rotation=True)):
+    against w_roll, the relative angular velocity's part about axes in the tangent plane
+    (rolling; spin about the normal is left alone), of at most rolling_friction * lever *
+    |f_n| (lever: the rolling radius), and at most the torque I |w_roll| / dt that stops
+    the rolling within the substep (the regularisation, as friction_force's cap)."""
+    speed = w_roll.norm()
+    return -ti.min(inertia / dt, rolling_friction * lever * fn / ti.max(speed, 1e-30)) * w_roll
+
+
+@ti.func
+def spin_friction(v1: vec3, w1: vec3, vs: vec3, ws: vec3, n: vec3, fn, mass, radius, dt, static_friction,
+                  kinetic_friction, viscous_friction, rolling_friction):
+    """Friction and rolling resistance of a spinning sphere (velocity v1, angular velocity
+    w1, everything else this substep already applied) on a surface moving at vs and turning
+    at ws at the contact point, outward normal n. The contact point -r n moves at
+    v1 + w1 x (-r n) - vs; a tangential force f there also turns the sphere, dw = dt
+    (-r n) x f / I. Returns (v1, w1).
+    1. Stuck: the force that stops the slip (-m v_t / dt) and the torque that stops the
+       rolling with it; kept when they are within mu_s |f_n| and mu_r r |f_n|: the sphere
+       holds exactly (on an incline of tan(theta) <= mu_r, mu_s).
+    2. Otherwise friction_force on the contact point's slip with the mass a tangential
+       force there sees, m I / (I + m r^2) = 2/7 m: a sphere without slip then rolls
+       (a = 5/7 g sin(theta) down an incline while mu_s >= 2/7 tan(theta)); then
+       rolling_torque against the rolling that is left."""
+    inertia = SPHERE_INERTIA * mass * radius * radius
+    arm = -radius * n  # centre to contact point
+    v_rel = v1 - vs
+    w_rel = w1 - ws
+    vt = v_rel - v_rel.dot(n) * n
+    w_roll = w_rel - w_rel.dot(n) * n
+    f_stick = -mass / dt * vt
+    # the rolling resistance that holds the rolling still against f_stick's own torque
+    torque_stick = -inertia / dt * w_roll - arm.cross(f_stick)
+    if f_stick.norm() <= static_friction * fn and torque_stick.norm() <= rolling_friction * radius * fn:
+        v1 += (dt / mass) * f_stick
+        w1 -= w_roll  # dt (arm x f_stick + torque_stick) / I
+    else:
+        slip = vt + w_rel.cross(arm)
+        f = friction_force(slip, fn, mass * inertia / (inertia + mass * radius * radius), dt, static_friction,
+                           kinetic_friction, viscous_friction)
+        v1 += (dt / mass) * f
+        w1 += (dt / inertia) * arm.cross(f)
+        w_rel = w1 - ws
+        w1 += (dt / inertia) * rolling_torque(w_rel - w_rel.dot(n) * n, fn, radius, inertia, dt, rolling_friction)
+    return v1, w1
 
 
 @ti.func

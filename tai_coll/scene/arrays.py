@@ -13,7 +13,7 @@ import taichi as ti
 
 # Building a bundle inside a kernel is plain Python evaluated at compile time, which is what
 # we want; Taichi warns about any such call, so silence exactly these.
-warnings.filterwarnings("ignore", message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays|ShapeData)"',
+warnings.filterwarnings("ignore", message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays|ShapeData|_History)"',
                         category=SyntaxWarning)
 
 

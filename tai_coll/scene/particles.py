@@ -40,6 +40,14 @@ def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.
         ids2[k] = ids[i]
 
 
+@ti.kernel
+def _permute_spin(order: ti.types.ndarray(), n: ti.i32, w: ti.types.ndarray(),
+                  # outputs: slot k gets the spin of slot order[k]
+                  w2: ti.types.ndarray()):
+    for k in range(n):
+        w2[k] = w[order[k]]
+
+
 def _stored_arrays(capacity: int) -> tuple:
     """x, v, mass, radius, flags, clearance, ids: every array the store keeps per particle."""
     return (ti.Vector.ndarray(3, float, shape=capacity), ti.Vector.ndarray(3, float, shape=capacity),
@@ -48,7 +56,8 @@ def _stored_arrays(capacity: int) -> tuple:
 
 
 class ParticleStore:
-    """Positions x (m), velocities v (m/s), mass (kg), radius (m) and a status flag."""
+    """Positions x (m), velocities v (m/s), mass (kg), radius (m) and a status flag; angular
+    velocities w (rad/s) once a solver that spins particles asks for them (enable_spin)."""
 
     def __init__(self, capacity: int = 1024):
         self.count = 0
@@ -69,16 +78,34 @@ class ParticleStore:
         # from the host, growth, permutations): what a step keeps between substeps (the
         # pair solver's neighbour lists) holds only while it is unchanged.
         self.edits = 0
+        # Angular velocities w (rad/s), kept only once a solver that spins particles asks for
+        # them (enable_spin): the other solvers treat particles as points.
+        self.w = None
         self._allocate(max(int(capacity), 1))
 
+    def _quantities(self) -> tuple:
+        return QUANTITIES + (("w",) if self.w is not None else ())
+
+    def enable_spin(self):
+        """Keep an angular velocity per particle from now on (zero to start with)."""
+        if self.w is None:
+            self.w = ti.Vector.ndarray(3, float, shape=self.capacity)
+            self.w.fill(0.0)
+            self._w_spare = None
+            self.edits += 1
+
     def _allocate(self, capacity: int):
-        old = {name: self.read(name) for name in QUANTITIES} if self.count else None
+        old = {name: self.read(name) for name in self._quantities()} if self.count else None
         # ids: the public index of the particle in each slot
         (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = _stored_arrays(capacity)
         self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
         self.permuted = False  # whether the storage order may differ from the public order
         self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
         self._spare = None  # arrays `permute` writes into (then swapped in)
+        if self.w is not None:
+            self.w = ti.Vector.ndarray(3, float, shape=capacity)
+            self.w.fill(0.0)
+            self._w_spare = None
         self.capacity = capacity
         self.version += 1
         self.edits += 1
@@ -107,6 +134,8 @@ class ParticleStore:
         for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
                              ("flags", np.zeros(n, dtype=np.int32))):
             self._write_range(name, start, values)
+        if self.w is not None:
+            self._write_range("w", start, np.zeros_like(x))
         self.count += n
         if n:
             self.max_radius = max(self.max_radius, float(np.max(radius)))
@@ -158,6 +187,11 @@ class ParticleStore:
         _permute(order, n, *current, *self._spare)
         (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = self._spare
         self._spare = current
+        if self.w is not None:
+            if self._w_spare is None:
+                self._w_spare = ti.Vector.ndarray(3, float, shape=self.capacity)
+            _permute_spin(order, n, self.w, self._w_spare)
+            self.w, self._w_spare = self._w_spare, self.w
         self.permuted = True
         self._ids_host = None
         self.edits += 1

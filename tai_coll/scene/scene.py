@@ -100,7 +100,10 @@ class Scene:
         reorder (True: the store kept in the grid's cell order; public order never changes),
         tangential_springs (False; DEM pairs only: friction by a spring per contact, Cundall and
         Strack, so static friction holds without creeping) and tangential_ratio (2/7: k_t / k_n).
-        See tai_coll.solvers.pairs. Returns the settings object."""
+        With tc.PenaltySolver(rotation=True) pairs also exchange torques: friction acts at the
+        contact point and the material's rolling_friction resists rolling (a rolling spring
+        per contact with tangential_springs). See tai_coll.solvers.pairs. Returns the
+        settings object."""
         self._check_runtime()
         if not (hasattr(self.solver, "resolve_candidates") or hasattr(self.solver, "kernel_constants")):
             raise TypeError(f"particle collisions need tc.ImpulseSolver or tc.PenaltySolver; "
@@ -218,6 +221,13 @@ class Scene:
     def velocities(self) -> np.ndarray:
         return self._particles.read("v")
 
+    def angular_velocities(self) -> np.ndarray:
+        """(N, 3) angular velocities in rad/s, in the order the particles were added: zero unless
+        the solver spins particles (tc.PenaltySolver(rotation=True))."""
+        if self._particles.w is None:
+            return np.zeros((self.num_particles, 3), dtype=runtime.float_dtype())
+        return self._particles.read("w")
+
     def masses(self) -> np.ndarray:
         return self._particles.read("mass")
 
@@ -238,6 +248,18 @@ class Scene:
         if v.shape != (self.num_particles, 3):
             raise ValueError(f"velocities must have shape ({self.num_particles}, 3); got {v.shape}")
         self._particles.write("v", v)
+
+    def set_angular_velocities(self, angular_velocities) -> None:
+        """Set every particle's angular velocity (rad/s); the solver must spin particles
+        (tc.PenaltySolver(rotation=True))."""
+        w = validate.points("angular_velocities", angular_velocities)
+        if w.shape != (self.num_particles, 3):
+            raise ValueError(f"angular_velocities must have shape ({self.num_particles}, 3); got {w.shape}")
+        if not getattr(self.solver, "rotation", False):
+            raise ValueError(f"angular_velocities: the scene's solver does not spin particles ({self.solver!r}); "
+                             "use tc.PenaltySolver(..., rotation=True)")
+        self._particles.enable_spin()
+        self._particles.write("w", w)
 
     def set_positions(self, positions) -> None:
         x = validate.points("positions", positions)

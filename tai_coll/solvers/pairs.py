@@ -42,7 +42,7 @@ from ..materials import Material
 from ..neighbors.hash_grid import QUERY_RANGES, HashGrid, cell_of, query_range
 from ..response.collide import WET_LAWS
 from ..response.laws import pair_normal, respond
-from ..response.penalty import friction_force, spring_damper
+from ..response.penalty import SPHERE_INERTIA, friction_force, rolling_torque, spring_damper
 from . import gauss_seidel
 from .penalty import contact_constants
 from ..scene import particles as P
@@ -101,15 +101,18 @@ def _mark_listed(x1: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
 
 @ti.kernel
 def _permute_history(order: ti.types.ndarray(), n: ti.i32, count: ti.types.ndarray(), partner: ti.types.ndarray(),
-                     spring: ti.types.ndarray(),
+                     spring: ti.types.ndarray(), roll: ti.types.ndarray(), rolling: ti.template(),
                      # outputs: slot k gets the springs of slot order[k] (as ParticleStore.permute)
-                     count2: ti.types.ndarray(), partner2: ti.types.ndarray(), spring2: ti.types.ndarray()):
+                     count2: ti.types.ndarray(), partner2: ti.types.ndarray(), spring2: ti.types.ndarray(),
+                     roll2: ti.types.ndarray()):
     for k in range(n):
         i = order[k]
         count2[k] = count[i]
         for h in range(HISTORY):
             partner2[k, h] = partner[i, h]
             spring2[k, h] = spring[i, h]
+            if ti.static(rolling):
+                roll2[k, h] = roll[i, h]
 
 
 @ti.func
@@ -264,17 +267,16 @@ def tangential_spring(spring: vec3, nrm: vec3, vt: vec3, fn, stiff, damp, ratio,
     gives that force. Every step is odd in (nrm, vt, spring), so the two particles of a
     pair, which each keep the pair's spring, see exactly opposite springs and forces.
     Returns (force, spring)."""
-    length = spring.norm()
     turned = spring - spring.dot(nrm) * nrm
-    size = turned.norm()
-    spring = turned * (length / ti.max(size, 1e-30)) + dt * vt
+    # (square roots only where needed: the length kept by one, the static test without)
+    spring = turned * ti.sqrt(spring.norm_sqr() / ti.max(turned.norm_sqr(), 1e-30)) + dt * vt
     kt = ratio * stiff
     dt_damp = ratio * damp
     force = -kt * spring - dt_damp * vt
-    magnitude = force.norm()
-    if magnitude > static_friction * fn:
+    limit = static_friction * fn
+    if force.norm_sqr() > limit * limit:
         slide = (kinetic_friction + viscous_friction * vt.norm()) * fn
-        force *= slide / magnitude
+        force *= slide / force.norm()
         spring = -(force + dt_damp * vt) / ti.max(kt, 1e-30)
     return force, spring
 
@@ -283,15 +285,15 @@ def tangential_spring(spring: vec3, nrm: vec3, vt: vec3, fn, stiff, damp, ratio,
 def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), mass: ti.template(),
                   entries: ti.template(), sorted_xr: ti.template(), dt, stiffness, per_mass, damping, is_ratio,
                   static_friction, kinetic_friction, viscous_friction, springs: ti.template(), ratio,
-                  ids: ti.template(), kept: ti.template(), kept_x: ti.template(), kept_y: ti.template(),
-                  kept_z: ti.template(), history_id: ti.template(), history_spring: ti.template(),
-                  history_overflow: ti.template(), carried):
-    """The summed DEM forces on particle i (position and radius `own`) from the touching
-    neighbours at slots batch[0..count) of the sorted grid. springs: tangential springs,
-    i's springs of the last substep in kept (partner ids, -1 for none) and kept_x, _y, _z;
-    this substep's are written to history_id / history_spring from index `carried` on.
-    Returns (force, springs written so far)."""
+                  ids: ti.template(), kept, old: ti.template(), new: ti.template(), history_overflow: ti.template(),
+                  carried, rotation: ti.template(), spin: ti.template(), rolling_friction):
+    """The summed DEM forces and torques on particle i (position and radius `own`) from the
+    touching neighbours at slots batch[0..count) of the sorted grid. springs: tangential
+    springs, i's `kept` springs of the last substep read from `old` (a _History), this
+    substep's written to `new` from index `carried` on (with rotation, the rolling springs
+    likewise). Returns (force, torque, springs written so far)."""
     total = vec3(0.0, 0.0, 0.0)
+    torque = vec3(0.0, 0.0, 0.0)
     for m in range(count):
         k = batch[m]
         j = entries[k]
@@ -301,32 +303,94 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), m
         stiff, damp = contact_constants(m_pair, stiffness, per_mass, damping, is_ratio)
         v_rel = v[i] - v[j]
         vn = v_rel.dot(nrm)
-        fn = spring_damper(own.w + other.w - dist, vn, stiff, damp)
+        overlap = own.w + other.w - dist
+        fn = spring_damper(overlap, vn, stiff, damp)
         total += fn * nrm
         vt = v_rel - vn * nrm
+        # the mass a tangential force at the contact sees: the reduced mass, 2/7 of it when the
+        # particles spin (1/m_t = sum over both of 1/m + r^2/I, I = 2/5 m r^2)
+        m_t = m_pair
+        w_roll = vec3(0.0, 0.0, 0.0)
+        # levers from the centres to the contact point, the middle of the overlap: they add up to
+        # the distance, so the pair's torques and the moment of its forces cancel (angular
+        # momentum is kept)
+        arm_i = own.w - 0.5 * overlap
+        if ti.static(rotation):
+            # slip of i's contact point (-arm_i n) against j's (+arm_j n)
+            vt += nrm.cross(arm_i * spin[i] + (other.w - 0.5 * overlap) * spin[j])
+            m_t = m_pair * (SPHERE_INERTIA / (1.0 + SPHERE_INERTIA))
+            w_rel = spin[i] - spin[j]
+            w_roll = w_rel - w_rel.dot(nrm) * nrm
+        lever = 0.0  # the rolling radius r_i r_j / (r_i + r_j)
+        if ti.static(rotation):
+            lever = own.w * other.w / (own.w + other.w)
+        force = vec3(0.0, 0.0, 0.0)
+        roll_torque = vec3(0.0, 0.0, 0.0)
         if ti.static(springs):
             partner = ids[j]
             spring = vec3(0.0, 0.0, 0.0)
-            found = 0
-            for h in range(HISTORY):
-                if kept[h] == partner:
-                    spring = vec3(kept_x[h], kept_y[h], kept_z[h])
-                    found = 1
-            if found != 0 or carried < HISTORY:
+            roll = vec3(0.0, 0.0, 0.0)
+            found = -1
+            if carried < kept and old.partner[i, carried] == partner:
+                found = carried  # the usual case: the contacts are met in last substep's order
+            else:
+                for h in range(kept):
+                    if old.partner[i, h] == partner:
+                        found = h
+            if found >= 0:
+                spring = old.spring[i, found]
+                if ti.static(rotation):
+                    roll = old.roll[i, found]
+            if found >= 0 or carried < HISTORY:
                 force, spring = tangential_spring(spring, nrm, vt, fn, stiff, damp, ratio, dt, static_friction,
                                                   kinetic_friction, viscous_friction)
-                total += force
+                if ti.static(rotation):
+                    # rolling resistance by a spring on the relative rotation since the contact
+                    # formed, k_r = k_t r^2, capped at mu_r r |f_n| (Cundall-Strack's law again)
+                    roll_torque, roll = tangential_spring(roll, nrm, w_roll, lever * fn, lever * lever * stiff,
+                                                          lever * lever * damp, ratio, dt, rolling_friction,
+                                                          rolling_friction, 0.0)
             else:  # a new contact and no room to remember it: regularised friction
-                total += friction_force(vt, fn, m_pair, dt, static_friction, kinetic_friction, viscous_friction)
+                force = friction_force(vt, fn, m_t, dt, static_friction, kinetic_friction, viscous_friction)
+                if ti.static(rotation):
+                    roll_torque = rolling_torque(w_roll, fn, lever, _pair_inertia(mass, i, j, own.w, other.w), dt,
+                                                 rolling_friction)
             if carried < HISTORY:
-                history_id[i, carried] = partner
-                history_spring[i, carried] = spring
+                new.partner[i, carried] = partner
+                new.spring[i, carried] = spring
+                if ti.static(rotation):
+                    new.roll[i, carried] = roll
                 carried += 1
             else:
                 ti.atomic_add(history_overflow[0], 1)
         else:
-            total += friction_force(vt, fn, m_pair, dt, static_friction, kinetic_friction, viscous_friction)
-    return total, carried
+            force = friction_force(vt, fn, m_t, dt, static_friction, kinetic_friction, viscous_friction)
+            if ti.static(rotation):
+                roll_torque = rolling_torque(w_roll, fn, lever, _pair_inertia(mass, i, j, own.w, other.w), dt,
+                                             rolling_friction)
+        total += force
+        if ti.static(rotation):
+            # the tangential force acts at i's contact point -arm_i n: torque (-arm_i n) x f
+            torque += arm_i * force.cross(nrm) + roll_torque
+    return total, torque, carried
+
+
+class _History:
+    """One set of the tangential springs' arrays, as the force kernel reads and writes them:
+    count[i] springs of particle i, partner[i, h] the public id of the particle the spring
+    h touches, spring[i, h] its tangential displacement, roll[i, h] its rolling spring
+    (rotation only)."""
+
+    def __init__(self, count, partner, spring, roll):
+        self.count, self.partner, self.spring, self.roll = count, partner, spring, roll
+
+
+@ti.func
+def _pair_inertia(mass: ti.template(), i, j, ri, rj):
+    """The pair's reduced moment of inertia 1 / (1/I_i + 1/I_j), I = 2/5 m r^2."""
+    inertia_i = SPHERE_INERTIA * mass[i] * ri * ri
+    inertia_j = SPHERE_INERTIA * mass[j] * rj * rj
+    return inertia_i * inertia_j / (inertia_i + inertia_j)
 
 
 @ti.kernel
@@ -335,11 +399,14 @@ def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.type
                  entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(), dt: float, stiffness: float,
                  per_mass: ti.i32, damping: float, is_ratio: ti.i32, static_friction: float, kinetic_friction: float,
                  viscous_friction: float, springs: ti.template(), ratio: float, ids: ti.types.ndarray(),
-                 # in-out (springs only)
-                 history_count: ti.types.ndarray(), history_id: ti.types.ndarray(),
-                 history_spring: ti.types.ndarray(), history_overflow: ti.types.ndarray(),
-                 # outputs
-                 force: ti.types.ndarray()):
+                 rotation: ti.template(), spin: ti.types.ndarray(), rolling_friction: float,
+                 # springs only (roll: with rotation too): last substep's
+                 count: ti.types.ndarray(), partner: ti.types.ndarray(), spring: ti.types.ndarray(),
+                 roll: ti.types.ndarray(),
+                 # outputs: this substep's springs (springs only), forces and (rotation) torques
+                 count2: ti.types.ndarray(), partner2: ti.types.ndarray(), spring2: ti.types.ndarray(),
+                 roll2: ti.types.ndarray(), history_overflow: ti.types.ndarray(), force: ti.types.ndarray(),
+                 torque: ti.types.ndarray()):
     """DEM contact (PHYSICS.md 4 between two particles): a spring-damper on the overlap,
     f_n = k overlap - D (v_rel . n), only pushing, and friction bounded by mu f_n. The
     constants use the pair's reduced mass m_a m_b / (m_a + m_b), the same on both sides,
@@ -348,53 +415,58 @@ def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.type
     scanned without branches into a small batch of touching ones (which candidates touch is
     not predictable), and the batch's forces computed in a loop of their own.
     springs: friction by tangential springs (tangential_spring), each particle's springs
-    carried from one substep to the next in its row of history_id (the partner's public id)
-    and history_spring: read into registers first, the row then rewritten with the contacts
-    touching now (a contact that ended is forgotten)."""
+    carried from one substep to the next in its row of partner (the partner's public id)
+    and spring, read from last substep's arrays and written with the contacts touching now
+    to the other set (count2, ...; a contact that ended is forgotten).
+    rotation: the particles spin (spin: angular velocities): friction acts on the slip of
+    the contact points and turns both particles, and rolling resistance (rolling_friction,
+    by a rolling spring per contact with springs, else rolling_torque) resists their
+    relative rolling; torque[i] receives the sum."""
     for slot in range(starts[n_buckets]):
         i = entries[slot]
         own = sorted_xr[slot]
         home = cell_of(own.xyz, inv_cell)
         total = vec3(0.0, 0.0, 0.0)
+        turn = vec3(0.0, 0.0, 0.0)
         batch = ti.Vector.zero(ti.i32, FORCE_BATCH)
-        count = 0
-        kept = ti.Vector([-1] * HISTORY, ti.i32)
-        kept_x = ti.Vector.zero(float, HISTORY)
-        kept_y = ti.Vector.zero(float, HISTORY)
-        kept_z = ti.Vector.zero(float, HISTORY)
-        carried = 0
+        touching = 0
+        kept = 0
         if ti.static(springs):
-            for h in range(history_count[i]):
-                kept[h] = history_id[i, h]
-                spring = history_spring[i, h]
-                kept_x[h] = spring.x
-                kept_y[h] = spring.y
-                kept_z[h] = spring.z
+            kept = count[i]
+        carried = 0
         for q in range(QUERY_RANGES):
             begin, end = query_range(home, q, bits, starts)
             for k in range(begin, end):
                 other = sorted_xr[k]
                 reach = own.w + other.w
-                batch[count] = k
-                count += ti.cast((k != slot) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
-                if count == FORCE_BATCH:  # rare (many small neighbours): empty the batch
-                    part, carried = _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness,
-                                                  per_mass, damping, is_ratio, static_friction, kinetic_friction,
-                                                  viscous_friction, springs, ratio, ids, kept, kept_x, kept_y, kept_z,
-                                                  history_id, history_spring, history_overflow, carried)
+                batch[touching] = k
+                touching += ti.cast((k != slot) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
+                if touching == FORCE_BATCH:  # rare (many small neighbours): empty the batch
+                    part, twist, carried = _batch_forces(
+                        i, own, batch, touching, v, mass, entries, sorted_xr, dt, stiffness, per_mass, damping,
+                        is_ratio, static_friction, kinetic_friction, viscous_friction, springs, ratio, ids, kept,
+                        _History(count, partner, spring, roll), _History(count2, partner2, spring2, roll2),
+                        history_overflow, carried, rotation, spin, rolling_friction)
                     total += part
-                    count = 0
-        part, carried = _batch_forces(i, own, batch, count, v, mass, entries, sorted_xr, dt, stiffness, per_mass,
-                                      damping, is_ratio, static_friction, kinetic_friction, viscous_friction, springs,
-                                      ratio, ids, kept, kept_x, kept_y, kept_z, history_id, history_spring,
-                                      history_overflow, carried)
+                    turn += twist
+                    touching = 0
+        part, twist, carried = _batch_forces(
+            i, own, batch, touching, v, mass, entries, sorted_xr, dt, stiffness, per_mass, damping, is_ratio,
+            static_friction, kinetic_friction, viscous_friction, springs, ratio, ids, kept,
+            _History(count, partner, spring, roll), _History(count2, partner2, spring2, roll2), history_overflow,
+            carried, rotation, spin, rolling_friction)
         total += part
+        turn += twist
         if ti.static(springs):
-            history_count[i] = carried
+            count2[i] = carried
         force[i] = total
+        if ti.static(rotation):
+            torque[i] = turn
     for i in range(n):
         if flags[i] != P.ACTIVE:
             force[i] = vec3(0.0, 0.0, 0.0)
+            if ti.static(rotation):
+                torque[i] = vec3(0.0, 0.0, 0.0)
 
 
 class ParticleCollisions:
@@ -433,10 +505,12 @@ class ParticleCollisions:
         see tangential_spring), so static friction holds a contact still under a steady
         load, where the default regularised friction (friction_force) lets it slip by about
         dt^2 times the load's acceleration every substep: a DEM pile then creeps and keeps
-        compacting. Costs HISTORY springs of memory per particle (196 B with the count, twice
-        that with the reordering's second set) and about a quarter more kernel time per dense
-        substep. Particles do not rotate, so nothing rolls: static friction then holds up
-        stacks real grains would topple (see the README). Default False.
+        compacting. Costs HISTORY springs of memory per particle (196 B with the count,
+        twice that: each substep reads last substep's set and writes the other) and about a
+        quarter more kernel time per dense substep. Unless the solver spins particles (PenaltySolver(rotation=True)) nothing
+        rolls, and static friction then holds up stacks real grains would topple (see the
+        README); with spin, each contact also keeps a rolling spring (rolling resistance
+        that holds, 144 B per particle more, twice with the second set). Default False.
     tangential_ratio: k_t / k_n and D_t / D_n of the tangential springs (default 2/7).
     """
 
@@ -492,9 +566,10 @@ class ParticleCollisions:
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
         self.listed_at = None  # allocated when a skin keeps the lists (see _predict_and_list)
         self._stand_in = ti.Vector.ndarray(4, float, shape=1)  # for listed_at without a skin
-        # the springs' arrays without tangential springs (never read)
+        # the springs' arrays without tangential springs (never read), and a torque array with rotation
         self._no_springs = (ti.ndarray(ti.i32, shape=1), ti.ndarray(ti.i32, shape=(1, HISTORY)),
-                            ti.Vector.ndarray(3, float, shape=(1, HISTORY)))
+                            ti.Vector.ndarray(3, float, shape=(1, HISTORY)), ti.Vector.ndarray(3, float, shape=(1, HISTORY)))
+        self.torque = None
         self.changed = ti.ndarray(ti.i32, shape=1)
         self._lists_key = None
 
@@ -531,7 +606,8 @@ class ParticleCollisions:
             particles.permute(self.grid.entries, particles.count)
             if self.history is not None and self._history_key is not None:
                 # the springs move with their particles (partners are named by public id)
-                _permute_history(self.grid.entries, particles.count, *self.history, *self._history_spare)
+                rolling = self.history[3].shape[0] > 1
+                _permute_history(self.grid.entries, particles.count, *self.history, rolling, *self._history_spare)
                 self.history, self._history_spare = self._history_spare, self.history
                 self._history_key = particles.edits
             self._since_reorder = 0
@@ -551,15 +627,18 @@ class ParticleCollisions:
         friction instead."""
         return int(self._history_overflow[0])
 
-    def _springs(self, particles):
-        """Fit the tangential springs' arrays (self.history) to the store: allocated with its
-        capacity, and emptied when the store was written from outside (added, moved or
-        removed particles: a spring is only carried between the substeps of a run)."""
+    def _springs(self, particles, rotation: bool):
+        """Fit the tangential springs' arrays (self.history: count, partner ids, tangential and,
+        with rotation, rolling springs) to the store: allocated with its capacity, and
+        emptied when the store was written from outside (added, moved or removed particles:
+        a spring is only carried between the substeps of a run)."""
         key = particles.edits
-        if self.history is None or self.history[0].shape[0] != particles.capacity:
+        rolls = (particles.capacity if rotation else 1, HISTORY)
+        if (self.history is None or self.history[0].shape[0] != particles.capacity
+                or self.history[3].shape != rolls):
             shapes = (particles.capacity, HISTORY)
             make = lambda: (ti.ndarray(ti.i32, shape=particles.capacity), ti.ndarray(ti.i32, shape=shapes),
-                            ti.Vector.ndarray(3, float, shape=shapes))
+                            ti.Vector.ndarray(3, float, shape=shapes), ti.Vector.ndarray(3, float, shape=rolls))
             self.history, self._history_spare = make(), make()
             self._history_key = None
         if self._history_key != key:
@@ -571,16 +650,26 @@ class ParticleCollisions:
         n = particles.count
         self._ensure(particles.capacity)
         springs = self.tangential_springs
+        rotation = scene.solver.rotation
         if springs:
-            self._springs(particles)  # before the reordering, which moves them with the store
+            self._springs(particles, rotation)  # before the reordering, which moves them with the store
+        if rotation:
+            particles.enable_spin()  # (before the reordering, which moves the spins with the store)
+            if self.torque is None or self.torque.shape[0] != particles.capacity:
+                self.torque = ti.Vector.ndarray(3, float, shape=particles.capacity)
         self._reorder(particles)
         history = self.history if springs else self._no_springs
         query = self._sort(particles, particles.x, 2.0 * scene._max_radius())
         m = self.material
+        torque = self.torque if rotation else self.delta
+        spare = self._history_spare if springs else self._no_springs
         _pair_forces(particles.v, particles.mass, particles.flags, n, *query, dt, *scene.solver.kernel_constants(),
                      m.static_friction, m.friction, m.wet_friction, springs, self.tangential_ratio, particles.ids,
-                     *history, self._history_overflow, self.delta)
-        scene.solver.advance(scene, dt, 1, force=self.delta)
+                     rotation, particles.w if rotation else particles.v, m.rolling_friction, *history, *spare,
+                     self._history_overflow, self.delta, torque)
+        if springs:  # this substep's springs are the current ones
+            self.history, self._history_spare = self._history_spare, self.history
+        scene.solver.advance(scene, dt, 1, force=self.delta, torque=self.torque if rotation else None)
 
     def _predict_and_list(self, scene, dt: float, reach: float, skin: float):
         """Steps 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach

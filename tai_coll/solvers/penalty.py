@@ -22,8 +22,8 @@ import numpy as np
 import taichi as ti
 
 from .. import params, runtime, validate
-from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SYMPLECTIC_EULER, apply_repulsion, friction_force,
-                                spring_damper, spring_damper_implicit)
+from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SPHERE_INERTIA, SYMPLECTIC_EULER, apply_repulsion,
+                                friction_force, spin_friction, spring_damper, spring_damper_implicit)
 from ..geometry.colliders import Collider
 from ..response.repulsion import pack
 from ..scene import particles as P
@@ -38,7 +38,8 @@ INTEGRATORS = {"symplectic_euler": SYMPLECTIC_EULER, "backward_euler": BACKWARD_
 # Columns of the solver's per-collider table (one row per collider of the scene).
 STATIC_FRICTION, KINETIC_FRICTION, VISCOUS_FRICTION = 0, 1, 2
 FIELD_KIND, FIELD_PROFILE, FIELD_STRENGTH, FIELD_DECAY, FIELD_RANGE = 3, 4, 5, 6, 7
-TABLE_WIDTH = 8
+ROLLING_FRICTION = 8
+TABLE_WIDTH = 9
 
 #: The scene warns when dt exceeds this multiple of the recommended dt (always inside the
 #: explicit stability limit, which lies at least 2.7 recommended dt away: see params).
@@ -61,11 +62,13 @@ def contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_rati
 
 
 @ti.func
-def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: vec3, v0: vec3, v1: vec3, m, r,
-                     gravity: vec3, dt, k, d, integrator):
+def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: vec3, v0: vec3, v1: vec3, w1: vec3, m,
+                     r, gravity: vec3, dt, k, d, integrator, rotation: ti.template()):
     """Every collider's forces on a particle at (x0, v0), colliders at their start pose.
-    Returns (v1 with the forces applied, the clearance: a lower bound on the distance from
-    the particle's surface to the nearest collider's reach)."""
+    rotation: the particle spins (angular velocity w1): friction acts at the contact point
+    and turns it, with rolling resistance (spin_friction). Returns (v1 and w1 with the
+    forces applied, the clearance: a lower bound on the distance from the particle's
+    surface to the nearest collider's reach)."""
     clearance = INFINITY
     for ci in range(n_colliders):
         row = table[ci]
@@ -95,24 +98,31 @@ def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: ve
                     fn = spring_damper(-gap, vn, k, d)
                 v1 += (dt * fn / m) * n
                 # friction against the tangential velocity every force so far would leave
-                v_rel = v1 - vs
-                vt = v_rel - v_rel.dot(n) * n
-                v1 += (dt / m) * friction_force(vt, fn, m, dt, row[STATIC_FRICTION], row[KINETIC_FRICTION],
-                                                row[VISCOUS_FRICTION])
+                if ti.static(rotation):
+                    v1, w1 = spin_friction(v1, w1, vs, c.angular_velocity[ci], n, fn, m, r, dt, row[STATIC_FRICTION],
+                                           row[KINETIC_FRICTION], row[VISCOUS_FRICTION], row[ROLLING_FRICTION])
+                else:
+                    v_rel = v1 - vs
+                    vt = v_rel - v_rel.dot(n) * n
+                    v1 += (dt / m) * friction_force(vt, fn, m, dt, row[STATIC_FRICTION], row[KINETIC_FRICTION],
+                                                    row[VISCOUS_FRICTION])
             if field_kind != FIELD_NONE:
                 # seed 002: the collider's repulsion field
                 v1 = vs + apply_repulsion(v1 - vs, n, gap, m, dt, field_kind, ti.cast(row[FIELD_PROFILE], ti.i32),
                                           row[FIELD_STRENGTH], row[FIELD_DECAY], field_range)
-    return v1, clearance
+    return v1, w1, clearance
 
 
 @ti.func
 def penalty_particle(p: ti.template(), c: ti.template(), table: ti.template(), i, n_colliders, gravity: vec3,
                      dt, stiffness, stiffness_per_mass, damping, damping_is_ratio, integrator,
                      use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, clearance,
-                     force: ti.template(), use_force: ti.template()):
+                     force: ti.template(), use_force: ti.template(), spin: ti.template(), torque: ti.template(),
+                     rotation: ti.template()):
     """One substep of particle i; returns its clearance after the substep (<= 0: unknown).
-    With use_force, force[i] (N, e.g. from other particles) joins gravity."""
+    With use_force, force[i] (N, e.g. from other particles) joins gravity (and with
+    rotation, torque[i] (N m) turns the particle). rotation: spin[i] holds the particle's
+    angular velocity (rad/s), integrated like v: w1 = w0 + dt tau / I."""
     if p.flags[i] == P.ACTIVE:
         # gather
         x0 = p.x[i]
@@ -122,17 +132,25 @@ def penalty_particle(p: ti.template(), c: ti.template(), table: ti.template(), i
         # forces: gravity (and given forces), then the colliders within reach (none while the
         # clearance lasts)
         v1 = v0 + dt * gravity
+        w1 = vec3(0.0, 0.0, 0.0)
+        if ti.static(rotation):
+            w1 = spin[i]
         if ti.static(use_force):
             v1 += (dt / m) * force[i]
+            if ti.static(rotation):
+                w1 += (dt / (SPHERE_INERTIA * m * r * r)) * torque[i]
         if clearance <= 0.0:
             k, d = contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio)
-            v1, clearance = contact_velocity(c, table, n_colliders, x0, v0, v1, m, r, gravity, dt, k, d,
-                                             integrator)
+            v1, w1, clearance = contact_velocity(c, table, n_colliders, x0, v0, v1, w1, m, r, gravity, dt, k, d,
+                                                 integrator, rotation)
         # integrate: symplectic Euler, x1 = x0 + dt v1
         x1 = x0 + dt * v1
         clearance -= (x1 - x0).norm()
         # scatter
         store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
+        if ti.static(rotation):
+            if p.flags[i] != P.NON_FINITE:
+                spin[i] = w1
     return clearance
 
 
@@ -147,7 +165,8 @@ def penalty_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
                     stiffness: float, stiffness_per_mass: ti.i32, damping: float, damping_is_ratio: ti.i32,
                     integrator: ti.i32, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
-                    force: vectors(), use_force: ti.template()):
+                    force: vectors(), use_force: ti.template(), spin: vectors(), torque: vectors(),
+                    rotation: ti.template()):
     # Particles are independent: with colliders that hold still during the call, one launch
     # runs every substep of a particle in registers, carrying its clearance.
     for i in range(n_particles):
@@ -159,7 +178,7 @@ def penalty_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                                                         fpool, ipool, groups),
                                          table, i, n_colliders, gravity, dt, stiffness, stiffness_per_mass,
                                          damping, damping_is_ratio, integrator, use_domain, domain_lo, domain_hi,
-                                         clearance, force, use_force)
+                                         clearance, force, use_force, spin, torque, rotation)
 
 
 class PenaltySolver:
@@ -190,6 +209,17 @@ class PenaltySolver:
     (impact speeds below about 30 g sqrt(m/k)); faster, it lets the particle leave at up to
     e^-2 = 13.5 % of its impact speed (damping_ratio 2: 4.8 %, 5: 0.9 %).
 
+    rotation: particles spin (False: they are points that slide). Each keeps an angular
+        velocity (Scene.angular_velocities()) and is a solid sphere, I = 2/5 m r^2:
+        friction acts at the contact point and turns the particle, so a sphere rolls down
+        an incline at a = 5/7 g sin(theta) while static_friction >= 2/7 tan(theta), and a
+        sphere thrown along a floor without spin slides, spins up and rolls on at 5/7 of
+        its speed. The materials' rolling_friction mu_r resists rolling with a torque of at
+        most mu_r r |f_n| (see spin_friction). Pairs between particles (DEM) then exchange
+        torques too (solvers/pairs.py). Not in the PHYSICS.md lecture notes, whose
+        particles are points: an extension for granular piles, which stand on rolling
+        resistance.
+
     The scene warns once, before its first step, when dt exceeds 2x the recommended dt of
     its stiffest contact (its lightest particle); `contact_params(mass)` gives the numbers.
     The impulse solver's material fields apply here too (restitution is ignored: the
@@ -198,13 +228,15 @@ class PenaltySolver:
 
     def __init__(self, *, stiffness: float | None = None, damping: float | None = None,
                  hertz: float | None = None, damping_ratio: float | None = None,
-                 integrator: str = "symplectic_euler"):
+                 integrator: str = "symplectic_euler", rotation: bool = False):
         if (stiffness is None) == (hertz is None):
             raise ValueError("give exactly one of stiffness (N/m) or hertz (Hz); "
                              f"got stiffness={stiffness!r}, hertz={hertz!r}")
         if damping is not None and damping_ratio is not None:
             raise ValueError("give at most one of damping (N s/m) or damping_ratio; "
                              f"got damping={damping!r}, damping_ratio={damping_ratio!r}")
+        if not isinstance(rotation, (bool, np.bool_)):
+            raise TypeError(f"rotation must be True or False; got {type(rotation).__name__}")
         if integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {tuple(INTEGRATORS)}; got {integrator!r}")
         self.stiffness = validate.real("stiffness", stiffness, low=0.0, low_open=True, allow_none=True)
@@ -212,13 +244,15 @@ class PenaltySolver:
         self.damping = validate.real("damping", damping, low=0.0, allow_none=True)
         self.damping_ratio = validate.real("damping_ratio", damping_ratio, low=0.0, allow_none=True)
         self.integrator = integrator
+        self.rotation = bool(rotation)
         self._tables = weakref.WeakKeyDictionary()  # scene -> (key, per-collider ndarray)
 
     def __repr__(self):
         k = f"stiffness={self.stiffness:g}" if self.stiffness is not None else f"hertz={self.hertz:g}"
         d = ("damping=critical" if self.damping is None and self.damping_ratio is None else
              f"damping={self.damping:g}" if self.damping is not None else f"damping_ratio={self.damping_ratio:g}")
-        return f"PenaltySolver({k}, {d}, integrator={self.integrator!r})"
+        spin = ", rotation=True" if self.rotation else ""
+        return f"PenaltySolver({k}, {d}, integrator={self.integrator!r}{spin})"
 
     # ---------------------------------------------------------------- constants
     def contact_stiffness(self, mass: float) -> float:
@@ -279,7 +313,7 @@ class PenaltySolver:
         rows = np.zeros((max(len(entries), 1), TABLE_WIDTH), dtype=runtime.float_dtype())
         for row, e in zip(rows, entries):
             m = e.material
-            row[:] = (m.static_friction, m.friction, m.wet_friction, *pack(e.repulsion))
+            row[:] = (m.static_friction, m.friction, m.wet_friction, *pack(e.repulsion), m.rolling_friction)
         table = ti.Vector.ndarray(TABLE_WIDTH, float, shape=len(rows))
         table.from_numpy(rows)
         self._tables[scene] = (key, table)
@@ -294,10 +328,16 @@ class PenaltySolver:
         damping = (1.0 if self.damping_ratio is None else self.damping_ratio) if is_ratio else self.damping
         return stiffness, int(per_mass), damping, int(is_ratio)
 
-    def advance(self, scene, dt: float, substeps: int = 1, force=None):
+    def advance(self, scene, dt: float, substeps: int = 1, force=None, torque=None):
         """Advance every active particle of `scene` by `substeps` substeps of dt against its
         colliders, which must keep their current poses for the whole call. `force`: an
-        optional ndarray of per-particle forces (N) held for the call (other particles')."""
+        optional ndarray of per-particle forces (N) held for the call (other particles'),
+        and with rotation `torque` (N m) likewise."""
+        particles = scene._particles
+        if self.rotation:
+            if force is not None and torque is None:
+                raise ValueError("torque: a rotating PenaltySolver given forces needs their torques too")
+            particles.enable_spin()
         table = self._collider_table(scene)
         stiffness, per_mass, damping, is_ratio = self.kernel_constants()
         lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
@@ -305,4 +345,6 @@ class PenaltySolver:
                         table, scene._particles.count, len(scene._colliders), substeps, vec3(*scene.gravity), dt,
                         stiffness, per_mass, damping, is_ratio, INTEGRATORS[self.integrator],
                         scene.domain is not None, vec3(*lo), vec3(*hi),
-                        force if force is not None else scene._particles.v, force is not None)
+                        force if force is not None else particles.v, force is not None,
+                        particles.w if self.rotation else particles.v,
+                        torque if torque is not None else particles.v, self.rotation)
