@@ -48,6 +48,13 @@ def _permute_spin(order: ti.types.ndarray(), n: ti.i32, w: ti.types.ndarray(),
         w2[k] = w[order[k]]
 
 
+def _spin_array(capacity: int):
+    """Angular velocities (rad/s) of `capacity` particles, all zero."""
+    w = ti.Vector.ndarray(3, float, shape=capacity)
+    w.fill(0.0)
+    return w
+
+
 def _stored_arrays(capacity: int) -> tuple:
     """x, v, mass, radius, flags, clearance, ids: every array the store keeps per particle."""
     return (ti.Vector.ndarray(3, float, shape=capacity), ti.Vector.ndarray(3, float, shape=capacity),
@@ -89,8 +96,7 @@ class ParticleStore:
     def enable_spin(self):
         """Keep an angular velocity per particle from now on (zero to start with)."""
         if self.w is None:
-            self.w = ti.Vector.ndarray(3, float, shape=self.capacity)
-            self.w.fill(0.0)
+            self.w = _spin_array(self.capacity)
             self._w_spare = None
             self.edits += 1
 
@@ -103,8 +109,7 @@ class ParticleStore:
         self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
         self._spare = None  # arrays `permute` writes into (then swapped in)
         if self.w is not None:
-            self.w = ti.Vector.ndarray(3, float, shape=capacity)
-            self.w.fill(0.0)
+            self.w = _spin_array(capacity)
             self._w_spare = None
         self.capacity = capacity
         self.version += 1
@@ -189,7 +194,7 @@ class ParticleStore:
         self._spare = current
         if self.w is not None:
             if self._w_spare is None:
-                self._w_spare = ti.Vector.ndarray(3, float, shape=self.capacity)
+                self._w_spare = _spin_array(self.capacity)
             _permute_spin(order, n, self.w, self._w_spare)
             self.w, self._w_spare = self._w_spare, self.w
         self.permuted = True

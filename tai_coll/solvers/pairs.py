@@ -331,12 +331,9 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), m
             spring = vec3(0.0, 0.0, 0.0)
             roll = vec3(0.0, 0.0, 0.0)
             found = -1
-            if carried < kept and old.partner[i, carried] == partner:
-                found = carried  # the usual case: the contacts are met in last substep's order
-            else:
-                for h in range(kept):
-                    if old.partner[i, h] == partner:
-                        found = h
+            for h in range(kept):
+                if old.partner[i, h] == partner:
+                    found = h
             if found >= 0:
                 spring = old.spring[i, found]
                 if ti.static(rotation):
