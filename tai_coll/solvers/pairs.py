@@ -311,6 +311,7 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), m
         # particles spin (1/m_t = sum over both of 1/m + r^2/I, I = 2/5 m r^2)
         m_t = m_pair
         w_roll = vec3(0.0, 0.0, 0.0)
+        lever = 0.0  # the rolling radius r_i r_j / (r_i + r_j), with rotation
         # levers from the centres to the contact point, the middle of the overlap: they add up to
         # the distance, so the pair's torques and the moment of its forces cancel (angular
         # momentum is kept)
@@ -321,8 +322,6 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), m
             m_t = m_pair * (SPHERE_INERTIA / (1.0 + SPHERE_INERTIA))
             w_rel = spin[i] - spin[j]
             w_roll = w_rel - w_rel.dot(nrm) * nrm
-        lever = 0.0  # the rolling radius r_i r_j / (r_i + r_j)
-        if ti.static(rotation):
             lever = own.w * other.w / (own.w + other.w)
         force = vec3(0.0, 0.0, 0.0)
         roll_torque = vec3(0.0, 0.0, 0.0)
@@ -504,10 +503,11 @@ class ParticleCollisions:
         dt^2 times the load's acceleration every substep: a DEM pile then creeps and keeps
         compacting. Costs HISTORY springs of memory per particle (196 B with the count,
         twice that: each substep reads last substep's set and writes the other) and about a
-        quarter more kernel time per dense substep. Unless the solver spins particles (PenaltySolver(rotation=True)) nothing
-        rolls, and static friction then holds up stacks real grains would topple (see the
-        README); with spin, each contact also keeps a rolling spring (rolling resistance
-        that holds, 144 B per particle more, twice with the second set). Default False.
+        quarter more kernel time per dense substep. Unless the solver spins particles
+        (PenaltySolver(rotation=True)) nothing rolls, and static friction then holds up
+        stacks real grains would topple (see the README); with spin, each contact also keeps
+        a rolling spring (rolling resistance that holds, 144 B per particle more, twice with
+        the second set). Default False.
     tangential_ratio: k_t / k_n and D_t / D_n of the tangential springs (default 2/7).
     """
 
@@ -564,8 +564,9 @@ class ParticleCollisions:
         self.listed_at = None  # allocated when a skin keeps the lists (see _predict_and_list)
         self._stand_in = ti.Vector.ndarray(4, float, shape=1)  # for listed_at without a skin
         # the springs' arrays without tangential springs (never read), and a torque array with rotation
-        self._no_springs = (ti.ndarray(ti.i32, shape=1), ti.ndarray(ti.i32, shape=(1, HISTORY)),
-                            ti.Vector.ndarray(3, float, shape=(1, HISTORY)), ti.Vector.ndarray(3, float, shape=(1, HISTORY)))
+        stand_in = (1, HISTORY)
+        self._no_springs = (ti.ndarray(ti.i32, shape=1), ti.ndarray(ti.i32, shape=stand_in),
+                            ti.Vector.ndarray(3, float, shape=stand_in), ti.Vector.ndarray(3, float, shape=stand_in))
         self.torque = None
         self.changed = ti.ndarray(ti.i32, shape=1)
         self._lists_key = None
