@@ -165,10 +165,11 @@ def test_spin_needs_a_rotating_solver_and_valid_arguments():
 BIG = 10.0  # radius (m) of the particle the small one rolls on: its top is flat within 0.1 %
 
 
-def rolling_on_a_big_particle(springs, mu, mu_r, *, theta=np.radians(20.0), small_first=False):
+def rolling_on_a_big_particle(springs, mu, mu_r, *, theta=np.radians(20.0), small_first=False, skin=0.0):
     """A particle B (1 kg, r = R) resting on top of A (1e6 kg, radius 10 m) that rests on a
     floor, gravity tilted by theta along x: over the 10 mm B travels, A's top is an incline
-    of theta. DEM pairs at 200 Hz, critically damped; the floor holds A (mu_r = 1)."""
+    of theta. DEM pairs at 200 Hz, critically damped; the floor holds A (mu_r = 1). skin:
+    the pairs' Verlet lists (a fraction of A's radius)."""
     hertz = 200.0
     scene = spinning_scene(dt=5e-5, substeps=100, gravity=(G * np.sin(theta), -G * np.cos(theta), 0.0),
                            stiffness=None, hertz=hertz)
@@ -180,18 +181,19 @@ def rolling_on_a_big_particle(springs, mu, mu_r, *, theta=np.radians(20.0), smal
         x, mass, radius = x[::-1], mass[::-1], radius[::-1]
     scene.add_particles(positions=x, mass=mass, radius=radius)
     settings = scene.enable_particle_collisions(material=tc.Material(friction=mu, rolling_friction=mu_r),
-                                                tangential_springs=springs)
+                                                tangential_springs=springs, skin=skin)
     return scene, settings, int(not small_first)
 
 
-@pytest.mark.parametrize("springs", [False, True])
+@pytest.mark.parametrize("springs, skin", [(False, 0.0), (True, 0.0), (True, 5e-4)])
 @pytest.mark.parametrize("mu_r", [0.0, 0.2])
-def test_particle_rolls_over_another_at_the_rolling_incline_law(springs, mu_r):
+def test_particle_rolls_over_another_at_the_rolling_incline_law(springs, skin, mu_r):
     # mu = 0.5 > 2/7 tan 20: B rolls over A with a = 5/7 g (sin - mu_r cos) (mu_r < tan 20).
     # Measured over 0.04 -> 0.1 s, with and without springs: mu_r = 0: +0.16 %; mu_r = 0.2:
-    # +0.41 %; the contact point's slip within 0.4 % of the speed.
+    # +0.41 %; the contact point's slip within 0.4 % of the speed. skin: the DEM kernel on
+    # Verlet lists (5 mm: rebuilt every 2.5 mm B travels), the same figures.
     theta = np.radians(20.0)
-    scene, _, b = rolling_on_a_big_particle(springs, 0.5, mu_r)
+    scene, settings, b = rolling_on_a_big_particle(springs, 0.5, mu_r, skin=skin)
     scene.step(8)
     v0, t0 = scene.velocities()[b, 0], scene.time
     scene.step(12)
@@ -199,6 +201,8 @@ def test_particle_rolls_over_another_at_the_rolling_incline_law(springs, mu_r):
     assert a == pytest.approx(5.0 / 7.0 * G * (np.sin(theta) - mu_r * np.cos(theta)), rel=0.03)
     v = scene.velocities()[b, 0]
     assert -scene.angular_velocities()[b, 2] * R == pytest.approx(v, rel=0.02)  # rolls (A barely turns)
+    if skin:
+        assert settings.list_builds >= 3
 
 
 @pytest.mark.parametrize("small_first", [False, True])

@@ -14,7 +14,11 @@ a box of five planes and fall into a pile, with particle-particle collisions on
   static friction that holds a contact without creeping);
 - dem-rolling: dem-springs with particles that spin (PenaltySolver(rotation=True)) and
   rolling resistance (rolling_friction=ROLLING_FRICTION, a rolling spring per contact):
-  grains that roll and topple, and stop.
+  grains that roll and topple, and stop;
+- any DEM variant with "-lists" (dem-lists, dem-springs-lists, dem-rolling-lists): the same
+  with the force kernel reading Verlet lists (ParticleCollisions(skin=DEM_SKIN): pairs within
+  r_i + r_j + skin, rebuilt from the grid once some particle has moved half the skin) instead
+  of querying the grid, sorted anew, every substep.
 Every frame from the start is timed (kernels compiled beforehand on a small pile), so the
 rates cover the fall, the impacts and, given enough frames, the dense pile:
 - particle-steps per second over all timed frames (total), of the median frame, and of the
@@ -37,6 +41,14 @@ SUBSTEPS = 5
 DT = {"impulse": 1.0 / 1000.0, "jacobi": 1.0 / 1000.0, "dem": 7.5e-5, "dem-springs": 7.5e-5, "dem-rolling": 7.5e-5}
 DEM_HERTZ = 200.0
 ROLLING_FRICTION = 0.1  # dem-rolling's mu_r (particles and walls): a lever arm of 0.1 r
+DEM_SKIN = 0.5  # the "-lists" variants' skin, a fraction of the radius (2.5 mm)
+VARIANTS = ("impulse", "jacobi", "dem", "dem-springs", "dem-rolling", "dem-lists", "dem-springs-lists",
+            "dem-rolling-lists")
+
+
+def base_variant(variant: str) -> str:
+    """The variant without its "-lists" (the model; the lists only change how pairs are found)."""
+    return variant[: -len("-lists")] if variant.endswith("-lists") else variant
 
 
 def pile_positions(n: int, half: float, seed: int = 0) -> np.ndarray:
@@ -61,6 +73,8 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", 
     reorder: the pair solver's reordering of the store by cell (on by default)."""
     if half is None:
         half = pile_half(n)
+    lists = variant.endswith("-lists")
+    variant = base_variant(variant)
     rotation = variant == "dem-rolling"
     solver = tc.PenaltySolver(hertz=DEM_HERTZ, rotation=rotation) if variant.startswith("dem") else None
     scene = tc.Scene(dt=DT[variant], substeps=SUBSTEPS, solver=solver)
@@ -71,6 +85,8 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", 
         scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
     method = {"dem": {}, "dem-springs": {"tangential_springs": True}, "dem-rolling": {"tangential_springs": True},
               "jacobi": {"method": "jacobi"}}.get(variant, {"method": "gauss-seidel"})
+    if lists:
+        method = dict(method, skin=DEM_SKIN)
     scene.enable_particle_collisions(material=material, reorder=reorder, **method)
     x = pile_positions(n, half)
     if shuffled:
@@ -89,7 +105,7 @@ def state_bytes(scene) -> int:
     arrays += list(particles._spare or ())  # the second set the store is permuted into (reorder)
     if not hasattr(scene.solver, "kernel_constants"):  # the impulse variant's work arrays
         arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts]
-        arrays += [pairs.listed_at] if pairs.listed_at is not None else []  # with a skin only
+    arrays += [pairs.listed_at] if pairs.listed_at is not None else []  # with a skin only
     if pairs.history is not None:  # tangential springs, and the second set they are permuted into
         arrays += list(pairs.history) + list(pairs._history_spare)
     if particles.w is not None:  # spin (rotation), its second set, and the pair torques
@@ -103,12 +119,14 @@ def compile_pile_kernels(tc, variant: str):
     """Run a small pile until its particles touch, so that every kernel variant the pile
     uses is compiled (or loaded from the offline cache) before anything is timed."""
     scene = pile_scene(tc, 2000, half=0.03, variant=variant)
-    scene.step(int(round(0.1 / (SUBSTEPS * DT[variant]))))
+    scene.step(int(round(0.1 / (SUBSTEPS * DT[base_variant(variant)]))))
     scene.particle_overlap()
 
 
 def grid_build_s(scene) -> float:
-    """The grid on its own, on the current positions: what one substep builds."""
+    """The grid on its own, on the current positions: what a substep that builds it builds (the
+    DEM kernel querying the grid: the sort alone, every substep; the others: the sort and the
+    neighbour lists, every substep or, with a skin, when the lists no longer hold)."""
     import taichi as ti
 
     pairs = scene._pairs
@@ -116,12 +134,13 @@ def grid_build_s(scene) -> float:
     times = []
     for _ in range(5):
         t = time.perf_counter()
-        if hasattr(scene.solver, "kernel_constants"):
+        dem = hasattr(scene.solver, "kernel_constants")
+        if dem and pairs.skin == 0.0:
             pairs.grid.sort(p.x, p.radius, p.flags, p.count, 2 * RADIUS)
         else:
-            margin = pairs.margin * RADIUS
-            pairs.grid.build(p.x, p.radius, p.flags, p.count, 2 * RADIUS + margin, margin,
-                             forward=pairs.forward_lists)
+            reach = (0.0 if dem else pairs.margin * RADIUS) + pairs.skin * RADIUS
+            pairs.grid.build(p.x, p.radius, p.flags, p.count, 2 * RADIUS + reach, reach,
+                             forward=pairs.forward_lists and not dem)
         ti.sync()
         times.append(time.perf_counter() - t)
     return float(np.median(times))
@@ -133,7 +152,8 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuff
 
     compile_pile_kernels(tc, variant)
     scene = pile_scene(tc, n, variant=variant, shuffled=shuffled, reorder=reorder)
-    frames = int(round(simulated_s / (SUBSTEPS * DT[variant])))
+    dt = DT[base_variant(variant)]
+    frames = int(round(simulated_s / (SUBSTEPS * dt)))
     times = []
     for _ in range(frames):
         t = time.perf_counter()
@@ -143,6 +163,7 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuff
     median = float(np.median(times))
     dense = float(np.median(times[-max(1, frames // 4):]))
     grid_s = grid_build_s(scene)
+    builds = scene._pairs.list_builds
     nbytes = state_bytes(scene)
     overlap = scene.particle_overlap()
     v = scene.velocities()
@@ -154,8 +175,9 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuff
         "reorder": reorder,
         "layout": "pile",
         "particles": n,
-        "dt": DT[variant],
+        "dt": dt,
         "frames": frames,
+        "substeps": SUBSTEPS,
         "simulated_s": scene.time,
         "frame_s": times,
         "median_frame_s": median,
@@ -164,6 +186,7 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuff
         "last_quarter_particle_steps_per_s": n * SUBSTEPS / dense,
         "simulated_s_per_wall_s": scene.time / float(np.sum(times)),
         "grid_build_s": grid_s,
+        "list_builds": builds,  # substeps that built neighbour lists (the DEM kernel on the grid: none)
         "state_bytes_per_particle": nbytes / n,
         "overlap_end": overlap,
         "kinetic_energy_per_particle_end_j": float(0.5 * np.mean(np.sum(v * v, axis=1))),

@@ -86,7 +86,7 @@ def main(argv=None) -> int:
     parser.add_argument("--particles", type=int, default=100_000)
     parser.add_argument("--seconds", type=float, default=1.5, help="simulated seconds from the drop")
     parser.add_argument("--every", type=float, default=0.25, help="simulated seconds between measurements")
-    parser.add_argument("--variant", choices=tuple(bench_pile.DT), default="impulse")
+    parser.add_argument("--variant", choices=bench_pile.VARIANTS, default="impulse")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
     parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
     parser.add_argument("--json", default="bench_results/pile_settle.json")
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     init_taichi(tc, args)
     scene = bench_pile.pile_scene(tc, args.particles, variant=args.variant)
     half = bench_pile.pile_half(args.particles)
-    frame = bench_pile.SUBSTEPS * bench_pile.DT[args.variant]
+    frame = bench_pile.SUBSTEPS * bench_pile.DT[bench_pile.base_variant(args.variant)]
     per = max(1, int(round(args.every / frame)))
     total = max(1, int(round(args.seconds / frame)))
     print(f"pile of {args.particles:,}, {args.variant}, {scene.substeps} substeps of {scene.dt * 1e3:g} ms per "

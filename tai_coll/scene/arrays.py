@@ -14,7 +14,7 @@ import taichi as ti
 # Building a bundle inside a kernel is plain Python evaluated at compile time, which is what
 # we want; Taichi warns about any such call, so silence exactly these.
 warnings.filterwarnings("ignore", category=SyntaxWarning,
-                        message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays|ShapeData|_History)"')
+                        message=r'.*Calling non-taichi function "(ParticleArrays|ColliderArrays|ShapeData|_History|_DEM)"')
 
 
 # Element types are left to the arrays passed in: annotations are evaluated at import time,

@@ -34,6 +34,8 @@ The passes visit the pairs in one of two ways (`method`):
   changes the order in which pairs are resolved).
 """
 
+import collections
+
 import numpy as np
 import taichi as ti
 
@@ -89,6 +91,21 @@ def _predict(x: ti.types.ndarray(), v: ti.types.ndarray(), flags: ti.types.ndarr
             seen = listed_at[i]
             if (active and (xi - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
                 stale[0] = 1
+
+
+@ti.kernel
+def _moved(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, listed_at: ti.types.ndarray(), reach2: float,
+           # output
+           stale: ti.types.ndarray()):
+    """In stale[0], whether the DEM kernel's lists no longer hold: some particle moved more
+    than sqrt(reach2) from where the lists saw it (listed_at, as in _predict), or its status
+    changed since."""
+    stale[0] = 0
+    for i in range(n):
+        seen = listed_at[i]
+        active = flags[i] == P.ACTIVE
+        if (active and (x[i] - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
+            stale[0] = 1
 
 
 @ti.kernel
@@ -259,17 +276,18 @@ def tangential_spring(spring: vec3, nrm: vec3, vt: vec3, fn, stiff, damp, ratio,
                       kinetic_friction, viscous_friction):
     """Coulomb friction with a tangential spring (Cundall and Strack), PHYSICS.md 4's static
     friction held by the contact's own displacement: `spring` is the tangential displacement
-    the contact has accumulated since it formed (zero for a new contact), turned into the
-    tangent plane of the current normal nrm (its length kept) and stretched by dt vt. The
+    the contact has accumulated since it formed (zero for a new contact), projected onto
+    the tangent plane of the current normal nrm and stretched by dt vt. (The contact plane
+    turns by a small angle a per substep, and the projection shortens the spring by 1 -
+    cos(a), second order in a; turning it with its length kept cost a square root and a
+    division per contact: 8 % of the spinning pile's substep, measured.) The
     force -k_t spring - D_t vt (k_t = ratio k_n, D_t = ratio D_n) holds while it is at most
     mu_s f_n; beyond, the contact slides: kinetic friction mu_k f_n (plus the wet term
     mu_v f_n |vt|) along the same direction, and the spring is cut back to the length that
     gives that force. Every step is odd in (nrm, vt, spring), so the two particles of a
     pair, which each keep the pair's spring, see exactly opposite springs and forces.
     Returns (force, spring)."""
-    turned = spring - spring.dot(nrm) * nrm
-    # (square roots only where needed: the length kept by one, the static test without)
-    spring = turned * ti.sqrt(spring.norm_sqr() / ti.max(turned.norm_sqr(), 1e-30)) + dt * vt
+    spring = spring - spring.dot(nrm) * nrm + dt * vt
     kt = ratio * stiff
     dt_damp = ratio * damp
     force = -kt * spring - dt_damp * vt
@@ -281,27 +299,71 @@ def tangential_spring(spring: vec3, nrm: vec3, vt: vec3, fn, stiff, damp, ratio,
     return force, spring
 
 
+class _History:
+    """One set of the tangential springs' arrays, as the force kernel reads and writes them:
+    count[i] springs of particle i, partner[i, h] the public id of the particle the spring
+    h touches, spring[i, h] its tangential displacement, roll[i, h] its rolling spring
+    (rotation only)."""
+
+    def __init__(self, count, partner, spring, roll):
+        self.count, self.partner, self.spring, self.roll = count, partner, spring, roll
+
+
+# What the DEM force kernel hands to `_batch_forces` (a tuple, so that the kernel can keep it
+# in a compile-time name): the particles' velocities, masses, public ids and (rotation) spins,
+# the contact constants (PenaltySolver.kernel_constants), the material's friction, the springs'
+# ratio and sets (old, new: _History) with their overflow counter, the static switches (springs,
+# rotation, listed) and the arrays the neighbours are read from (the store's x and radius if
+# listed, else the grid's entries and sorted copy).
+_DEM = collections.namedtuple("_DEM", "v mass ids spin dt stiffness per_mass damping is_ratio static_friction "
+                              "kinetic_friction viscous_friction ratio rolling_friction old new history_overflow "
+                              "springs rotation listed x radius entries sorted_xr")
+
+
 @ti.func
-def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), mass: ti.template(),
-                  entries: ti.template(), sorted_xr: ti.template(), dt, stiffness, per_mass, damping, is_ratio,
-                  static_friction, kinetic_friction, viscous_friction, springs: ti.template(), ratio,
-                  ids: ti.template(), kept, old: ti.template(), new: ti.template(), history_overflow: ti.template(),
-                  carried, rotation: ti.template(), spin: ti.template(), rolling_friction):
+def _pair_inertia(mass: ti.template(), i, j, ri, rj):
+    """The pair's reduced moment of inertia 1 / (1/I_i + 1/I_j), I = 2/5 m r^2."""
+    inertia_i = SPHERE_INERTIA * mass[i] * ri * ri
+    inertia_j = SPHERE_INERTIA * mass[j] * rj * rj
+    return inertia_i * inertia_j / (inertia_i + inertia_j)
+
+
+@ti.func
+def _regularised(vt: vec3, w_roll: vec3, fn, m_t, lever, i, j, ri, rj, law: ti.template()):
+    """Friction without springs: the regularised force on the contact points' slip vt (mass
+    m_t), and with rotation the capped torque against the relative rolling w_roll (rolling
+    radius `lever`). Returns (force, rolling torque)."""
+    force = friction_force(vt, fn, m_t, law.dt, law.static_friction, law.kinetic_friction, law.viscous_friction)
+    roll_torque = vec3(0.0, 0.0, 0.0)
+    if ti.static(law.rotation):
+        roll_torque = rolling_torque(w_roll, fn, lever, _pair_inertia(law.mass, i, j, ri, rj), law.dt,
+                                     law.rolling_friction)
+    return force, roll_torque
+
+
+@ti.func
+def _batch_forces(i, own: vec4, batch: ti.template(), count, law: ti.template(), kept, carried):
     """The summed DEM forces and torques on particle i (position and radius `own`) from the
-    touching neighbours at slots batch[0..count) of the sorted grid. springs: tangential
-    springs, i's `kept` springs of the last substep read from `old` (a _History), this
-    substep's written to `new` from index `carried` on (with rotation, the rolling springs
-    likewise). Returns (force, torque, springs written so far)."""
+    touching neighbours batch[0..count): slots of the sorted grid, or with law.listed the
+    neighbours' indices in the store. law: a _DEM. springs: tangential springs, i's `kept`
+    springs of the last substep read from law.old, this substep's written to law.new from
+    index `carried` on (with rotation, the rolling springs likewise). Returns (force,
+    torque, springs written so far)."""
     total = vec3(0.0, 0.0, 0.0)
     torque = vec3(0.0, 0.0, 0.0)
     for m in range(count):
         k = batch[m]
-        j = entries[k]
-        other = sorted_xr[k]
+        j = k
+        other = vec4(0.0, 0.0, 0.0, 0.0)
+        if ti.static(law.listed):
+            other = vec4(law.x[k], law.radius[k])
+        else:
+            j = law.entries[k]
+            other = law.sorted_xr[k]
         nrm, dist = pair_normal(own.xyz, other.xyz, i, j)
-        m_pair = mass[i] * mass[j] / (mass[i] + mass[j])
-        stiff, damp = contact_constants(m_pair, stiffness, per_mass, damping, is_ratio)
-        v_rel = v[i] - v[j]
+        m_pair = law.mass[i] * law.mass[j] / (law.mass[i] + law.mass[j])
+        stiff, damp = contact_constants(m_pair, law.stiffness, law.per_mass, law.damping, law.is_ratio)
+        v_rel = law.v[i] - law.v[j]
         vn = v_rel.dot(nrm)
         overlap = own.w + other.w - dist
         fn = spring_damper(overlap, vn, stiff, damp)
@@ -316,86 +378,85 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, v: ti.template(), m
         # the distance, so the pair's torques and the moment of its forces cancel (angular
         # momentum is kept)
         arm_i = own.w - 0.5 * overlap
-        if ti.static(rotation):
+        if ti.static(law.rotation):
             # slip of i's contact point (-arm_i n) against j's (+arm_j n)
-            vt += nrm.cross(arm_i * spin[i] + (other.w - 0.5 * overlap) * spin[j])
+            vt += nrm.cross(arm_i * law.spin[i] + (other.w - 0.5 * overlap) * law.spin[j])
             m_t = m_pair * (SPHERE_INERTIA / (1.0 + SPHERE_INERTIA))
-            w_rel = spin[i] - spin[j]
+            w_rel = law.spin[i] - law.spin[j]
             w_roll = w_rel - w_rel.dot(nrm) * nrm
             lever = own.w * other.w / (own.w + other.w)
         force = vec3(0.0, 0.0, 0.0)
         roll_torque = vec3(0.0, 0.0, 0.0)
-        if ti.static(springs):
-            partner = ids[j]
+        if ti.static(law.springs):
+            partner = law.ids[j]
             spring = vec3(0.0, 0.0, 0.0)
             roll = vec3(0.0, 0.0, 0.0)
             found = -1
             for h in range(kept):
-                if old.partner[i, h] == partner:
+                if law.old.partner[i, h] == partner:
                     found = h
             if found >= 0:
-                spring = old.spring[i, found]
-                if ti.static(rotation):
-                    roll = old.roll[i, found]
+                spring = law.old.spring[i, found]
+                if ti.static(law.rotation):
+                    roll = law.old.roll[i, found]
             if found >= 0 or carried < HISTORY:
-                force, spring = tangential_spring(spring, nrm, vt, fn, stiff, damp, ratio, dt, static_friction,
-                                                  kinetic_friction, viscous_friction)
-                if ti.static(rotation):
+                force, spring = tangential_spring(spring, nrm, vt, fn, stiff, damp, law.ratio, law.dt,
+                                                  law.static_friction, law.kinetic_friction, law.viscous_friction)
+                if ti.static(law.rotation):
                     # rolling resistance by a spring on the relative rotation since the contact
                     # formed, k_r = k_t r^2, capped at mu_r r |f_n| (Cundall-Strack's law again)
                     roll_torque, roll = tangential_spring(roll, nrm, w_roll, lever * fn, lever * lever * stiff,
-                                                          lever * lever * damp, ratio, dt, rolling_friction,
-                                                          rolling_friction, 0.0)
+                                                          lever * lever * damp, law.ratio, law.dt,
+                                                          law.rolling_friction, law.rolling_friction, 0.0)
             else:  # a new contact and no room to remember it: regularised friction
-                force = friction_force(vt, fn, m_t, dt, static_friction, kinetic_friction, viscous_friction)
-                if ti.static(rotation):
-                    roll_torque = rolling_torque(w_roll, fn, lever, _pair_inertia(mass, i, j, own.w, other.w), dt,
-                                                 rolling_friction)
+                force, roll_torque = _regularised(vt, w_roll, fn, m_t, lever, i, j, own.w, other.w, law)
             if carried < HISTORY:
-                new.partner[i, carried] = partner
-                new.spring[i, carried] = spring
-                if ti.static(rotation):
-                    new.roll[i, carried] = roll
+                law.new.partner[i, carried] = partner
+                law.new.spring[i, carried] = spring
+                if ti.static(law.rotation):
+                    law.new.roll[i, carried] = roll
                 carried += 1
             else:
-                ti.atomic_add(history_overflow[0], 1)
+                ti.atomic_add(law.history_overflow[0], 1)
         else:
-            force = friction_force(vt, fn, m_t, dt, static_friction, kinetic_friction, viscous_friction)
-            if ti.static(rotation):
-                roll_torque = rolling_torque(w_roll, fn, lever, _pair_inertia(mass, i, j, own.w, other.w), dt,
-                                             rolling_friction)
+            force, roll_torque = _regularised(vt, w_roll, fn, m_t, lever, i, j, own.w, other.w, law)
         total += force
-        if ti.static(rotation):
+        if ti.static(law.rotation):
             # the tangential force acts at i's contact point -arm_i n: torque (-arm_i n) x f
             torque += arm_i * force.cross(nrm) + roll_torque
     return total, torque, carried
 
 
-class _History:
-    """One set of the tangential springs' arrays, as the force kernel reads and writes them:
-    count[i] springs of particle i, partner[i, h] the public id of the particle the spring
-    h touches, spring[i, h] its tangential displacement, roll[i, h] its rolling spring
-    (rotation only)."""
-
-    def __init__(self, count, partner, spring, roll):
-        self.count, self.partner, self.spring, self.roll = count, partner, spring, roll
-
-
 @ti.func
-def _pair_inertia(mass: ti.template(), i, j, ri, rj):
-    """The pair's reduced moment of inertia 1 / (1/I_i + 1/I_j), I = 2/5 m r^2."""
-    inertia_i = SPHERE_INERTIA * mass[i] * ri * ri
-    inertia_j = SPHERE_INERTIA * mass[j] * rj * rj
-    return inertia_i * inertia_j / (inertia_i + inertia_j)
+def _gather(i, own: vec4, batch: ti.template(), touching, handle, other: vec4, skip, law: ti.template(), kept,
+            carried, total: vec3, turn: vec3):
+    """One candidate neighbour of particle i (at `other`: position and radius; skip: nonzero
+    for i itself) into the batch, without branches (which candidates touch is not predictable): written
+    at the batch's end, which only a touching one advances. A full batch (rare: many small
+    neighbours) is emptied into total and turn by `_batch_forces`. Returns (touching,
+    carried, total, turn)."""
+    reach = own.w + other.w
+    batch[touching] = handle
+    touching += ti.cast((skip == 0) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
+    if touching == FORCE_BATCH:
+        part, twist, carried = _batch_forces(i, own, batch, touching, law, kept, carried)
+        total += part
+        turn += twist
+        touching = 0
+    return touching, carried, total, turn
 
 
 @ti.kernel
-def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32,
+def _pair_forces(listed: ti.template(), v: ti.types.ndarray(), mass: ti.types.ndarray(),
+                 flags: ti.types.ndarray(), n: ti.i32,
+                 # the grid (listed: the store's positions, radii and the neighbour lists instead)
                  n_buckets: ti.i32, inv_cell: float, bits: ivec3, starts: ti.types.ndarray(),
-                 entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(), dt: float, stiffness: float,
-                 per_mass: ti.i32, damping: float, is_ratio: ti.i32, static_friction: float, kinetic_friction: float,
-                 viscous_friction: float, springs: ti.template(), ratio: float, ids: ti.types.ndarray(),
-                 rotation: ti.template(), spin: ti.types.ndarray(), rolling_friction: float,
+                 entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(), x: ti.types.ndarray(),
+                 radius: ti.types.ndarray(), neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
+                 dt: float, stiffness: float, per_mass: ti.i32, damping: float, is_ratio: ti.i32,
+                 static_friction: float, kinetic_friction: float, viscous_friction: float, springs: ti.template(),
+                 ratio: float, ids: ti.types.ndarray(), rotation: ti.template(), spin: ti.types.ndarray(),
+                 rolling_friction: float,
                  # springs only (roll: with rotation too): last substep's
                  count: ti.types.ndarray(), partner: ti.types.ndarray(), spring: ti.types.ndarray(),
                  roll: ti.types.ndarray(),
@@ -407,9 +468,12 @@ def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.type
     f_n = k overlap - D (v_rel . n), only pushing, and friction bounded by mu f_n. The
     constants use the pair's reduced mass m_a m_b / (m_a + m_b), the same on both sides,
     so f_ab = -f_ba and momentum is conserved. Forces are at the substep's start, so the
-    grid is queried directly (no neighbour lists), in bucket order: the candidates are
-    scanned without branches into a small batch of touching ones (which candidates touch is
-    not predictable), and the batch's forces computed in a loop of their own.
+    grid, sorted this substep, is queried directly, in bucket order; listed: the
+    candidates are instead the neighbour lists (Verlet lists: built with a skin and kept
+    while no particle has moved more than half of it, see ParticleCollisions' skin), each
+    particle in the store's order. The candidates are gathered without branches into a
+    small batch of touching ones (`_gather`), and the batch's forces computed in a loop of
+    their own (`_batch_forces`).
     springs: friction by tangential springs (tangential_spring), each particle's springs
     carried from one substep to the next in its row of partner (the partner's public id)
     and spring, read from last substep's arrays and written with the contacts touching now
@@ -418,51 +482,66 @@ def _pair_forces(v: ti.types.ndarray(), mass: ti.types.ndarray(), flags: ti.type
     the contact points and turns both particles, and rolling resistance (rolling_friction,
     by a rolling spring per contact with springs, else rolling_torque) resists their
     relative rolling; torque[i] receives the sum."""
-    for slot in range(starts[n_buckets]):
-        i = entries[slot]
-        own = sorted_xr[slot]
-        home = cell_of(own.xyz, inv_cell)
-        total = vec3(0.0, 0.0, 0.0)
-        turn = vec3(0.0, 0.0, 0.0)
-        batch = ti.Vector.zero(ti.i32, FORCE_BATCH)
-        touching = 0
-        kept = 0
-        if ti.static(springs):
-            kept = count[i]
-        carried = 0
-        for q in range(QUERY_RANGES):
-            begin, end = query_range(home, q, bits, starts)
-            for k in range(begin, end):
-                other = sorted_xr[k]
-                reach = own.w + other.w
-                batch[touching] = k
-                touching += ti.cast((k != slot) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
-                if touching == FORCE_BATCH:  # rare (many small neighbours): empty the batch
-                    part, twist, carried = _batch_forces(
-                        i, own, batch, touching, v, mass, entries, sorted_xr, dt, stiffness, per_mass, damping,
-                        is_ratio, static_friction, kinetic_friction, viscous_friction, springs, ratio, ids, kept,
-                        _History(count, partner, spring, roll), _History(count2, partner2, spring2, roll2),
-                        history_overflow, carried, rotation, spin, rolling_friction)
-                    total += part
-                    turn += twist
-                    touching = 0
-        part, twist, carried = _batch_forces(
-            i, own, batch, touching, v, mass, entries, sorted_xr, dt, stiffness, per_mass, damping, is_ratio,
-            static_friction, kinetic_friction, viscous_friction, springs, ratio, ids, kept,
-            _History(count, partner, spring, roll), _History(count2, partner2, spring2, roll2), history_overflow,
-            carried, rotation, spin, rolling_friction)
-        total += part
-        turn += twist
-        if ti.static(springs):
-            count2[i] = carried
-        force[i] = total
-        if ti.static(rotation):
-            torque[i] = turn
-    for i in range(n):
-        if flags[i] != P.ACTIVE:
-            force[i] = vec3(0.0, 0.0, 0.0)
-            if ti.static(rotation):
-                torque[i] = vec3(0.0, 0.0, 0.0)
+    law = ti.static(_DEM(v, mass, ids, spin, dt, stiffness, per_mass, damping, is_ratio, static_friction,
+                         kinetic_friction, viscous_friction, ratio, rolling_friction,
+                         _History(count, partner, spring, roll), _History(count2, partner2, spring2, roll2),
+                         history_overflow, springs, rotation, listed, x, radius, entries, sorted_xr))
+    if ti.static(listed):
+        for i in range(n):
+            total = vec3(0.0, 0.0, 0.0)
+            turn = vec3(0.0, 0.0, 0.0)
+            carried = 0
+            if flags[i] == P.ACTIVE:
+                own = vec4(x[i], radius[i])
+                batch = ti.Vector.zero(ti.i32, FORCE_BATCH)
+                touching = 0
+                kept = 0
+                if ti.static(springs):
+                    kept = count[i]
+                for e in range(neighbour_count[i]):
+                    j = neighbours[i, e]
+                    touching, carried, total, turn = _gather(i, own, batch, touching, j, vec4(x[j], radius[j]),
+                                                             0, law, kept, carried, total, turn)
+                part, twist, carried = _batch_forces(i, own, batch, touching, law, kept, carried)
+                total += part
+                turn += twist
+            _store_forces(i, total, turn, carried, law, force, torque)
+    else:
+        for slot in range(starts[n_buckets]):
+            i = entries[slot]
+            own = sorted_xr[slot]
+            home = cell_of(own.xyz, inv_cell)
+            total = vec3(0.0, 0.0, 0.0)
+            turn = vec3(0.0, 0.0, 0.0)
+            batch = ti.Vector.zero(ti.i32, FORCE_BATCH)
+            touching = 0
+            kept = 0
+            if ti.static(springs):
+                kept = count[i]
+            carried = 0
+            for q in range(QUERY_RANGES):
+                begin, end = query_range(home, q, bits, starts)
+                for k in range(begin, end):
+                    touching, carried, total, turn = _gather(i, own, batch, touching, k, sorted_xr[k], k == slot,
+                                                             law, kept, carried, total, turn)
+            part, twist, carried = _batch_forces(i, own, batch, touching, law, kept, carried)
+            _store_forces(i, total + part, turn + twist, carried, law, force, torque)
+        for i in range(n):
+            if flags[i] != P.ACTIVE:
+                force[i] = vec3(0.0, 0.0, 0.0)
+                if ti.static(rotation):
+                    torque[i] = vec3(0.0, 0.0, 0.0)
+
+
+@ti.func
+def _store_forces(i, total: vec3, turn: vec3, carried, law: ti.template(), force: ti.template(),
+                  torque: ti.template()):
+    """Particle i's summed force and (rotation) torque, and (springs) how many springs it wrote."""
+    if ti.static(law.springs):
+        law.new.count[i] = carried
+    force[i] = total
+    if ti.static(law.rotation):
+        torque[i] = turn
 
 
 class ParticleCollisions:
@@ -489,13 +568,20 @@ class ParticleCollisions:
         the margin is still listed. Pays where every particle is nearly still; where a few
         keep moving (a pile still settling) the lists are rebuilt anyway and every pass
         evaluates the longer lists. 0 (default): rebuilt every substep.
-    reorder: before a rebuild of the lists (a DEM substep), at most every REORDER_INTERVAL
-        substeps, put the particle store in
-        the order of the grid's cells (its last sort), so that neighbours lie near each other
-        in memory: the passes read neighbours' data from the cache instead of all over the
-        arrays. The public order (positions(), velocities(), ...) never changes.
-    (The penalty variant needs no margin or skin: its forces are evaluated once, at the
-    substep's start, from the grid, sorted every substep.)
+        Penalty (DEM) pairs: with a skin the force kernel reads lists of the pairs within
+        r_i + r_j + skin, kept until some particle has moved skin / 2 (as above, at the
+        substep's start positions), instead of querying the grid, sorted anew, every substep
+        (skin 0, the default). DEM substeps are short, so the lists last many of them: on
+        the benchmark pile (skin 0.2) the force substep costs about two thirds (README).
+        Where a particle has more neighbours than the lists keep, the kernel queries the
+        grid until they are next built (no contact is missed).
+    reorder: before a rebuild of the lists (a DEM substep on the grid: every substep), at
+        most every REORDER_INTERVAL builds, put the particle store in the order of the
+        grid's cells (its last sort), so that neighbours lie near each other in memory: the
+        passes read neighbours' data from the cache instead of all over the arrays. The
+        public order (positions(), velocities(), ...) never changes.
+    (The penalty variant needs no margin: its forces are evaluated once, at the substep's
+    start.)
     tangential_springs: penalty (DEM) pairs only: friction by a spring per contact that
         remembers the contact's tangential displacement since it formed (Cundall and Strack;
         see tangential_spring), so static friction holds a contact still under a steady
@@ -550,6 +636,8 @@ class ParticleCollisions:
         self._since_reorder = REORDER_INTERVAL  # substeps since the store was last reordered
         self._sorted_key = None  # the store's (edits, count) when the grid last sorted it
         self._latest_counts = None  # the array with the latest per-particle contact counts
+        self._lists_complete = True  # whether the DEM lists' last build kept every neighbour
+        self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
 
     def _ensure(self, capacity: int):
         """Work arrays as large as the particle store (so whole-array copies line up)."""
@@ -563,6 +651,8 @@ class ParticleCollisions:
         self.contacts = ti.ndarray(ti.i32, shape=capacity)
         self.listed_at = None  # allocated when a skin keeps the lists (see _predict_and_list)
         self._stand_in = ti.Vector.ndarray(4, float, shape=1)  # for listed_at without a skin
+        self._stand_in_i = ti.ndarray(ti.i32, shape=1)
+        self._no_lists = (ti.ndarray(ti.i32, shape=(1, 1)), self._stand_in_i)  # the DEM kernel on the grid
         # the springs' arrays without tangential springs (never read), and a torque array with rotation
         stand_in = (1, HISTORY)
         self._no_springs = (ti.ndarray(ti.i32, shape=1), ti.ndarray(ti.i32, shape=stand_in),
@@ -583,10 +673,11 @@ class ParticleCollisions:
 
     @property
     def neighbour_overflow(self) -> int:
-        """Neighbours left out of full lists since the start (a read from the device); more
-        than NEIGHBOUR_CAPACITY particles within a particle's reach means particles far
-        smaller than the largest, or a pile crushed far beyond its radii."""
-        return self.grid.dropped()
+        """Neighbours left out of full lists since the start, and contacts with them missed (a
+        read from the device); more than NEIGHBOUR_CAPACITY particles within a particle's reach
+        means particles far smaller than the largest, or a pile crushed far beyond its radii.
+        (The DEM kernel's lists miss none: while they are full it queries the grid instead.)"""
+        return self.grid.dropped() - self._dem_dropped
 
     def _sort(self, particles, x, cell_size: float):
         """The grid's counting sort of the store's particles (at positions x)."""
@@ -655,19 +746,54 @@ class ParticleCollisions:
             particles.enable_spin()  # (before the reordering, which moves the spins with the store)
             if self.torque is None or self.torque.shape[0] != particles.capacity:
                 self.torque = ti.Vector.ndarray(3, float, shape=particles.capacity)
-        self._reorder(particles)
+        listed = self.skin > 0.0 and self._dem_lists(scene, self.skin * scene._max_radius())
+        if listed:
+            query = (0, 1.0, ivec3(1, 1, 1), self._stand_in_i, self._stand_in_i, self._stand_in)
+            lists = (self.grid.neighbours, self.grid.neighbour_count)
+        else:
+            if self.skin == 0.0:  # (with lists, the store is reordered when they are built)
+                self._reorder(particles)
+            query = self._sort(particles, particles.x, 2.0 * scene._max_radius())
+            lists = self._no_lists
         history = self.history if springs else self._no_springs
-        query = self._sort(particles, particles.x, 2.0 * scene._max_radius())
         m = self.material
         torque = self.torque if rotation else self.delta
         spare = self._history_spare if springs else self._no_springs
-        _pair_forces(particles.v, particles.mass, particles.flags, n, *query, dt, *scene.solver.kernel_constants(),
-                     m.static_friction, m.friction, m.wet_friction, springs, self.tangential_ratio, particles.ids,
-                     rotation, particles.w if rotation else particles.v, m.rolling_friction, *history, *spare,
+        _pair_forces(listed, particles.v, particles.mass, particles.flags, n, *query, particles.x, particles.radius,
+                     *lists, dt, *scene.solver.kernel_constants(), m.static_friction, m.friction, m.wet_friction,
+                     springs, self.tangential_ratio, particles.ids, rotation,
+                     particles.w if rotation else particles.v, m.rolling_friction, *history, *spare,
                      self._history_overflow, self.delta, torque)
         if springs:  # this substep's springs are the current ones
             self.history, self._history_spare = self._history_spare, self.history
         scene.solver.advance(scene, dt, 1, force=self.delta, torque=self.torque if rotation else None)
+
+    def _dem_lists(self, scene, skin: float) -> bool:
+        """The DEM kernel's Verlet lists: every pair closer than r_i + r_j + skin, built from the
+        grid (at most every REORDER_INTERVAL builds after reordering the store by it) and kept
+        until some particle has moved more than skin / 2 from where they saw it, or changed
+        status, or the store was written. Returns whether they hold every such pair: False
+        when a particle had more neighbours than the lists keep (the force kernel then queries
+        the grid, sorted anew, until the next build)."""
+        particles = scene._particles
+        n = particles.count
+        key = (particles.edits, n, skin, particles.capacity, "dem")
+        if self.listed_at is None:
+            self.listed_at = ti.Vector.ndarray(4, float, shape=self.capacity)
+        if self._lists_key == key:
+            _moved(particles.x, particles.flags, n, self.listed_at, (0.5 * skin) ** 2, self.changed)
+            if not self._changed():
+                return self._lists_complete
+        self._reorder(particles)  # (swaps the store's arrays)
+        dropped = self.grid.dropped()
+        self.grid.build(particles.x, particles.radius, particles.flags, n, 2.0 * scene._max_radius() + skin, skin)
+        self._sorted_key = (particles.edits, n)
+        _mark_listed(particles.x, particles.flags, n, self.listed_at)
+        self._lists_key = (particles.edits,) + key[1:]
+        self._lists_complete = self.grid.dropped() == dropped
+        self._dem_dropped += self.grid.dropped() - dropped  # (not missed: see neighbour_overflow)
+        self.list_builds += 1
+        return self._lists_complete
 
     def _predict_and_list(self, scene, dt: float, reach: float, skin: float):
         """Steps 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach
