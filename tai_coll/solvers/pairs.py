@@ -87,10 +87,16 @@ def _predict(x: ti.types.ndarray(), v: ti.types.ndarray(), flags: ti.types.ndarr
             xi = xi + dt * vi
         v1[i] = vi
         x1[i] = xi
-        if check:
-            seen = listed_at[i]
-            if (active and (xi - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
-                stale[0] = 1
+        if check and _left_lists(xi, active, listed_at[i], reach2):
+            stale[0] = 1
+
+
+@ti.func
+def _left_lists(x: vec3, active, seen: vec4, reach2):
+    """Whether a particle at x (active: simulated now) is no longer held by lists that saw it
+    at seen.xyz (seen.w: 1 if it was simulated then, 0 if not): it moved more than
+    sqrt(reach2) since, or its status changed."""
+    return (active and (x - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5))
 
 
 @ti.kernel
@@ -98,13 +104,10 @@ def _moved(x: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, listed_a
            # output
            stale: ti.types.ndarray()):
     """In stale[0], whether the DEM kernel's lists no longer hold: some particle moved more
-    than sqrt(reach2) from where the lists saw it (listed_at, as in _predict), or its status
-    changed since."""
+    than sqrt(reach2) from where the lists saw it, or its status changed since (_left_lists)."""
     stale[0] = 0
     for i in range(n):
-        seen = listed_at[i]
-        active = flags[i] == P.ACTIVE
-        if (active and (x[i] - seen.xyz).norm_sqr() > reach2) or (active != (seen.w > 0.5)):
+        if _left_lists(x[i], flags[i] == P.ACTIVE, listed_at[i], reach2):
             stale[0] = 1
 
 
