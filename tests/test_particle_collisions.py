@@ -357,6 +357,32 @@ def test_dem_pair_undamped_is_elastic_and_conserves_momentum():
     assert scene.particle_overlap()["pairs"] == 0
 
 
+def crowded_particle(count, seed, offset=(0.0, 0.0, 0.0)):
+    """A big particle (r 0.1, 5 kg) overlapped by `count` small ones (r 0.02, 0.5 to 2 kg) in
+    random directions, some of which overlap each other: positions, radii, masses."""
+    rng = np.random.default_rng(seed)
+    directions = rng.normal(size=(count, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    small = directions * rng.uniform(0.105, 0.118, (count, 1))  # overlapping the big one (r 0.1 + 0.02)
+    x = np.vstack([[0.0, 0.0, 0.0], small]) + offset
+    radius = np.concatenate([[0.1], np.full(count, 0.02)])
+    mass = np.concatenate([[5.0], rng.uniform(0.5, 2.0, count)])
+    return x, radius, mass
+
+
+def spring_law_velocities(x, radius, mass, k, dt):
+    """Brute force: the velocities after one substep from rest with undamped DEM springs and no
+    gravity, dt/m times the sum of k overlap n over every touching pair; and which pairs touch."""
+    d = x[:, None, :] - x[None, :, :]
+    dist = np.linalg.norm(d, axis=2)
+    overlap = radius[:, None] + radius[None, :] - dist
+    np.fill_diagonal(overlap, 0.0)
+    touching = overlap > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        force = np.where(touching[:, :, None], k * overlap[:, :, None] * d / dist[:, :, None], 0.0).sum(axis=1)
+    return dt * force / mass[:, None], touching
+
+
 @pytest.mark.parametrize("springs", [False, True])
 def test_dem_forces_on_a_crowded_particle_match_the_spring_law(springs):
     # A big particle touched by 40 small ones (more than the kernel's batch of touching
@@ -365,28 +391,15 @@ def test_dem_forces_on_a_crowded_particle_match_the_spring_law(springs):
     # damper and friction see zero relative velocity), with k = stiffness as given. With
     # tangential springs (new contacts: zero springs) the big one keeps 12 of its 40 and
     # counts the other 28 as overflow.
-    rng = np.random.default_rng(5)
     k, dt = 3e3, 1e-5
-    directions = rng.normal(size=(40, 3))
-    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    small = directions * rng.uniform(0.105, 0.118, (40, 1))  # overlapping the big one (r 0.1 + 0.02)
-    x = np.vstack([[0.0, 0.0, 0.0], small]) + [3.0, -2.0, 1.0]
-    radius = np.concatenate([[0.1], np.full(40, 0.02)])
-    mass = np.concatenate([[5.0], rng.uniform(0.5, 2.0, 40)])
+    x, radius, mass = crowded_particle(40, 5, offset=(3.0, -2.0, 1.0))
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1,
                      solver=tc.PenaltySolver(stiffness=k, damping=0.0))
     settings = scene.enable_particle_collisions(material=tc.Material(friction=0.5), tangential_springs=springs)
     scene.add_particles(positions=x, radius=radius, mass=mass)
     scene.step(1)
-    d = x[:, None, :] - x[None, :, :]
-    dist = np.linalg.norm(d, axis=2)
-    overlap = radius[:, None] + radius[None, :] - dist
-    np.fill_diagonal(overlap, 0.0)
-    touching = overlap > 0
+    expected, touching = spring_law_velocities(x, radius, mass, k, dt)
     assert touching[0].sum() == 40 and touching[1:, 1:].any()
-    with np.errstate(invalid="ignore", divide="ignore"):
-        force = np.where(touching[:, :, None], k * overlap[:, :, None] * d / dist[:, :, None], 0.0).sum(axis=1)
-    expected = dt * force / mass[:, None]
     assert np.allclose(scene.velocities(), expected, rtol=1e-4, atol=1e-9 * np.abs(expected).max())
     assert np.allclose((mass[:, None] * scene.velocities()).sum(axis=0), 0.0, atol=1e-12)
     assert settings.history_overflow == (40 - 12 if springs else 0)
@@ -659,28 +672,16 @@ def test_dem_lists_too_full_fall_back_to_the_grid():
     # acts (one substep from rest, no gravity: v = dt/m sum of k overlap n).
     from tai_coll.neighbors.hash_grid import NEIGHBOUR_CAPACITY
 
-    rng = np.random.default_rng(8)
     k, dt, count = 3e3, 1e-5, 60
     assert count > NEIGHBOUR_CAPACITY
-    directions = rng.normal(size=(count, 3))
-    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    x = np.vstack([[0.0, 0.0, 0.0], directions * rng.uniform(0.105, 0.118, (count, 1))])
-    radius = np.concatenate([[0.1], np.full(count, 0.02)])
-    mass = np.concatenate([[5.0], rng.uniform(0.5, 2.0, count)])
+    x, radius, mass = crowded_particle(count, 8)
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1, solver=tc.PenaltySolver(stiffness=k, damping=0.0))
     pairs = scene.enable_particle_collisions(material=tc.Material(friction=0.5), skin=0.1)
     scene.add_particles(positions=x, radius=radius, mass=mass)
     scene.step(1)
     assert pairs.grid.dropped() > 0 and pairs.list_builds == 1
-    d = x[:, None, :] - x[None, :, :]
-    dist = np.linalg.norm(d, axis=2)
-    overlap = radius[:, None] + radius[None, :] - dist
-    np.fill_diagonal(overlap, 0.0)
-    touching = overlap > 0
+    expected, touching = spring_law_velocities(x, radius, mass, k, dt)
     assert touching[0].sum() == count
-    with np.errstate(invalid="ignore", divide="ignore"):
-        force = np.where(touching[:, :, None], k * overlap[:, :, None] * d / dist[:, :, None], 0.0).sum(axis=1)
-    expected = dt * force / mass[:, None]
     assert np.allclose(scene.velocities(), expected, rtol=1e-4, atol=1e-9 * np.abs(expected).max())
 
 

@@ -434,10 +434,10 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, law: ti.template(),
 def _gather(i, own: vec4, batch: ti.template(), touching, handle, other: vec4, skip, law: ti.template(), kept,
             carried, total: vec3, turn: vec3):
     """One candidate neighbour of particle i (at `other`: position and radius; skip: nonzero
-    for i itself) into the batch, without branches (which candidates touch is not predictable): written
-    at the batch's end, which only a touching one advances. A full batch (rare: many small
-    neighbours) is emptied into total and turn by `_batch_forces`. Returns (touching,
-    carried, total, turn)."""
+    for i itself) into the batch, without branches (which candidates touch is not
+    predictable): written at the batch's end, which only a touching one advances. A full
+    batch (rare: many small neighbours) is emptied into total and turn by `_batch_forces`.
+    Returns (touching, carried, total, turn)."""
     reach = own.w + other.w
     batch[touching] = handle
     touching += ti.cast((skip == 0) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
