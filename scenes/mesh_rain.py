@@ -3,7 +3,7 @@
 The torus is a generated triangle mesh (trimesh), baked into a tc.MeshSDF grid and turned
 so its axis is vertical. 2,000 particles start 1 m above it at 20 m/s downwards: at the
 substep of 1/1200 s they move 1.7 radii per substep, so only the trajectory crossing
-(root finding on the grid, PHYSICS.md 1) keeps them out. Some pass through the hole.
+(root finding on the grid, docs/physics.md 1) keeps them out. Some pass through the hole.
 The check: after every frame no particle centre is inside the torus (phi > 0).
 Run it: `python scenes/mesh_rain.py`. Any mesh file trimesh reads rains the same way, scaled
 to the torus's size: `python scenes/mesh_rain.py bunny.obj`, or set TAI_COLL_RAIN_MESH=path

@@ -1,7 +1,7 @@
 """Moving paddles striking particles at rest: collisions in the paddle's frame (relative velocity).
 
 A paddle moving at V hits a particle at rest. In the paddle's frame the particle approaches
-at -V and leaves at +e V (PHYSICS.md 2: v_rel = v - v_obj, v_N' = -e v_N), so in the world
+at -V and leaves at +e V (docs/physics.md 2: v_rel = v - v_obj, v_N' = -e v_N), so in the world
 it leaves at V + e V = (1 + e) V: twice the paddle's speed when e = 1, the paddle's own
 speed when e = 0 (it is pushed along). Processing the collision with the particle's own
 velocity instead would leave it at rest.

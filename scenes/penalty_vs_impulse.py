@@ -1,5 +1,5 @@
-"""One scene, two ways to resolve contact: impulses (PHYSICS.md 2-3) and penalty forces
-(PHYSICS.md 4, seed 002), switched by the `solver` argument alone.
+"""One scene, two ways to resolve contact: impulses (docs/physics.md 2-3) and penalty forces
+(docs/physics.md 4, seed 002), switched by the `solver` argument alone.
 
 Particles of masses 0.1 to 2 kg slide down a 30 degree incline with Coulomb friction
 mu = 0.2 (< tan 30, so they slide) and a ball is dropped on a floor of restitution 0 beside

@@ -2,7 +2,7 @@
 
 Gravity pulls a resting particle into the floor a little every substep. Processing that as
 a collision with restitution e reflects the small downward velocity, so the particle hops
-and never settles (PHYSICS.md 3, Implementation 1 fails for resting contact). The default
+and never settles (docs/physics.md 3, Implementation 1 fails for resting contact). The default
 scheme (Implementation 3, "elastic_contact") applies the elastic law to the velocity at the
 start of the substep, which is zero for a resting particle, then removes what is left of
 the approach with an inelastic contact pass: resting particles stay put while particles

@@ -1,5 +1,5 @@
 """Marbles on three ramps of 20 degrees, each ramp with its own rolling resistance (spinning
-particles: PenaltySolver(rotation=True); README, Penalty forces).
+particles: PenaltySolver(spin=True); docs/physics.md 6).
 
 A solid sphere that rolls without slipping accelerates at 5/7 g sin(theta), slower than a
 sliding point's g sin(theta): part of gravity's work goes into spin. Rolling resistance
@@ -31,7 +31,7 @@ def lane_center(k: int) -> np.ndarray:
 
 def scene() -> tc.Scene:
     s = tc.Scene(gravity=(0.0, -9.81, 0.0), dt=1.0 / 4000.0, substeps=round(4000 / 60),
-                 solver=tc.PenaltySolver(hertz=HERTZ, rotation=True))
+                 solver=tc.PenaltySolver(hertz=HERTZ, spin=True))
     sink = 9.81 * np.cos(THETA) / (2 * np.pi * HERTZ) ** 2
     starts = []
     for k, mu_r in enumerate(ROLLING):

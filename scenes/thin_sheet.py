@@ -1,4 +1,4 @@
-"""A fast stream hits a zero-thickness sheet (continuous detection, PHYSICS.md 1 and 3).
+"""A fast stream hits a zero-thickness sheet (continuous detection, docs/physics.md 1 and 3).
 
 A nozzle fires particles at 50 m/s, 0.04 m (eight radii) per substep, at a tilted square
 sheet of 2 x 24^2 triangles with no thickness at all: an interference test alone would

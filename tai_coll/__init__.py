@@ -22,14 +22,15 @@ from .response import collide, collide_pair
 from .response.repulsion import RepulsionField
 from .runtime import RuntimeInfo, init
 from .scene.scene import Scene
-from .solvers import ImpulseSolver, PenaltySolver
+from .solvers import ImpulseSolver, PenaltySolver, Solver
+from .solvers.pairs import PairSettings, ParticleCollisions
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PenaltySolver", "Plane",
-    "RepulsionField", "RuntimeInfo", "Scene", "SimulationError", "Sphere", "collide", "collide_pair", "init",
-    "params", "rotation_matrix",
+    "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PairSettings", "ParticleCollisions",
+    "PenaltySolver", "Plane", "RepulsionField", "RuntimeInfo", "Scene", "SimulationError", "Solver", "Sphere",
+    "collide", "collide_pair", "init", "params", "rotation_matrix",
     "HeightField", "TriangleMesh",
     "Implicit", "MeshSDF", "bake_mesh",
 ]

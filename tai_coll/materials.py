@@ -1,4 +1,4 @@
-"""Contact material of a collider (PHYSICS.md 2 and 4)."""
+"""Contact material of a collider (docs/physics.md 2 and 4)."""
 
 from __future__ import annotations
 

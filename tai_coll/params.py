@@ -1,4 +1,4 @@
-"""Choosing spring and damping constants and the step size (PHYSICS.md 4, seed 002).
+"""Choosing spring and damping constants and the step size (docs/physics.md 4, seed 002).
 
 Every number here comes from the 1-D model of one contact, m a = -K x - D v:
 

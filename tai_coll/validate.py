@@ -6,7 +6,9 @@ was accepted, so a user sees `radius must be > 0` and not a Taichi trace.
 
 from __future__ import annotations
 
+import functools
 import numbers
+import warnings
 
 import numpy as np
 
@@ -118,3 +120,25 @@ def rotation(name: str, value) -> np.ndarray:
     if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
         raise ValueError(f"{name} must be orthonormal with determinant +1 (a rotation)")
     return R
+
+
+def renamed_arguments(**renames):
+    """Decorator for a function whose keyword arguments were renamed (old="new"): the old
+    name still works, with a DeprecationWarning, until the next minor version; giving both
+    is a TypeError."""
+
+    def wrap(function):
+        @functools.wraps(function)
+        def call(*args, **kwargs):
+            for old, new in renames.items():
+                if old in kwargs:
+                    if new in kwargs:
+                        raise TypeError(f"give {new}= only ({old}= is its old name)")
+                    warnings.warn(f"{function.__qualname__.split('.')[0]}: {old}= is now called {new}=; the old "
+                                  "name will be removed in tai_coll 0.3", DeprecationWarning, stacklevel=2)
+                    kwargs[new] = kwargs.pop(old)
+            return function(*args, **kwargs)
+
+        return call
+
+    return wrap

@@ -46,6 +46,7 @@ def script(tmp_path, text, name="scene.py"):
     return path
 
 
+@pytest.mark.slow  # two child processes, each starting Taichi and rendering
 @renders
 def test_run_writes_frames_and_a_video(tmp_path):
     imageio = pytest.importorskip("imageio")

@@ -1,4 +1,4 @@
-"""Geometry queries (PHYSICS.md 1) against independent numpy references.
+"""Geometry queries (docs/physics.md 1) against independent numpy references.
 
 Every reference below is a closed-form signed distance written here from the textbook
 formulas, in numpy; nothing from tai_coll is used as an oracle. The session runs in f64

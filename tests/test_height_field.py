@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import tai_coll as tc
-from tai_coll.geometry.height_field import WINDOW
+from tai_coll.geometry.terrain import WINDOW
+from conftest import G
 from triangle_oracle import nearest, segment_first_hit, swept_contact
 
 PHI_TOL = 1e-9
 T_TOL = 1e-6
-G = 9.81
 
 
 def field_triangles(heights, dx, dz, origin):

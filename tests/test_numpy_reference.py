@@ -10,18 +10,11 @@ difference grows on a particle sliding over a curved surface, and once it tips a
 trajectories. Hence the test asks for agreement of the vast majority, not of all.
 """
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import tai_coll as tc
-
-_PATH = Path(__file__).resolve().parents[1] / "tools" / "numpy_reference.py"
-_spec = importlib.util.spec_from_file_location("numpy_reference", _PATH)
-nr = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(nr)
+from tools import numpy_reference as nr  # the repository root is on sys.path: pyproject's pythonpath
 
 SHAPES = [
     (tc.Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0)), tc.Material()),

@@ -1,4 +1,4 @@
-"""The penalty solver against closed-form answers (PHYSICS.md 4, seed 002), on the CPU in f64.
+"""The penalty solver against closed-form answers (docs/physics.md 4, seed 002), on the CPU in f64.
 
 A penalty contact is the 1-D model m a = -k x - D v while the particle penetrates: an
 undamped drop rebounds to its height after half a period pi sqrt(m/k) with the deepest
@@ -15,10 +15,9 @@ import numpy as np
 import pytest
 
 import tai_coll as tc
+from conftest import DOWNHILL, FLOOR, G, THETA, on_incline
 
-G = 9.81
 R = 0.02  # particle radius (m)
-FLOOR = dict(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0))
 
 
 def penalty_scene(dt, *, substeps=1, gravity=(0.0, -G, 0.0), **solver_args):
@@ -142,19 +141,14 @@ def test_hertz_gives_every_mass_the_same_resting_depth(mass):
     assert depth == pytest.approx(G / (2 * np.pi * f) ** 2, rel=1e-4)
 
 
-# ---------------------------------------------------------------- friction forces
-THETA = np.radians(30.0)
-INCLINE_N = np.array([-np.sin(THETA), np.cos(THETA), 0.0])
-DOWNHILL = -np.array([np.cos(THETA), np.sin(THETA), 0.0])
+# ---------------------------------------------------------------- friction forces (conftest's 30 degree incline)
 INCLINE_K = 1e4  # N/m, m = 1 kg
 
 
 def incline_scene(**material):
     scene = penalty_scene(1 / 2000, substeps=20, stiffness=INCLINE_K)
-    scene.add_collider(tc.Plane(point=(0.0, 0.0, 0.0), normal=INCLINE_N), material=tc.Material(**material))
     # start at the resting depth m g cos(theta) / k, so the normal force is right at once
-    start = (R - G * np.cos(THETA) / INCLINE_K) * INCLINE_N
-    scene.add_particles(positions=[start], radius=R, mass=1.0)
+    start = on_incline(scene, tc.Material(**material), R, depth=G * np.cos(THETA) / INCLINE_K, mass=1.0)
     return scene, start
 
 
@@ -398,7 +392,7 @@ def test_non_finite_run_names_particles_and_suggests_dt():
         with pytest.raises(tc.SimulationError, match=r"indices \[1\]\).*recommended dt is "
                            + f"{contact.recommended_dt:.3g}"):
             scene.step(100)
-    assert list(scene.status()) == ["active", "non_finite"]
+    assert list(scene.particle_status()) == ["active", "non_finite"]
 
 
 def test_backward_euler_is_stable_at_large_dt_and_damps_the_bounce():

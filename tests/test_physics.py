@@ -1,4 +1,4 @@
-"""Closed-form physics of whole scenes (PHYSICS.md 2 and 3), on the CPU in f64.
+"""Closed-form physics of whole scenes (docs/physics.md 2 and 3), on the CPU in f64.
 
 Every test compares a scene against a number worked out by hand: bounce apex e^2 h, the
 bouncing-block problem, a block on an incline, sliding stop distance, moving and rotating
@@ -11,12 +11,11 @@ import numpy as np
 import pytest
 
 import tai_coll as tc
+from conftest import DOWNHILL, FLOOR, G, INCLINE_N, THETA, on_incline
 
-G = 9.81
 R = 0.01  # particle radius used throughout (m)
 SCHEMES = ["elastic_contact", "micro", "simple", "exact_time"]
 RESTING_SCHEMES = ["elastic_contact", "exact_time"]  # the schemes that solve the bouncing-block problem
-FLOOR = dict(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0))
 
 
 def make_scene(scheme="elastic_contact", *, dt=1.0 / 600.0, substeps=10, gravity=(0.0, -G, 0.0), **solver_args):
@@ -53,7 +52,7 @@ def test_bounce_apex_is_e_squared_h(scheme, e):
 # ---------------------------------------------------------------- bouncing-block problem
 @pytest.mark.parametrize("scheme", RESTING_SCHEMES)
 def test_resting_particle_stays_at_rest_with_high_restitution(scheme):
-    # PHYSICS.md 3, Implementation 3: e = 0.9, resting on the floor, stays exactly at rest.
+    # docs/physics.md 3, Implementation 3: e = 0.9, resting on the floor, stays exactly at rest.
     scene = make_scene(scheme)
     scene.add_collider(tc.Plane(**FLOOR), material=tc.Material(restitution=0.9, friction=0.3))
     scene.add_particles(positions=[[0.0, R, 0.0]], radius=R)
@@ -86,17 +85,10 @@ def test_simple_and_micro_jitter_on_resting_contact(scheme):
     assert min(heights) > R - 1e-3 * R  # it jitters, but above the floor
 
 
-# ---------------------------------------------------------------- incline
-THETA = np.radians(30.0)
-INCLINE_N = np.array([-np.sin(THETA), np.cos(THETA), 0.0])
-DOWNHILL = -np.array([np.cos(THETA), np.sin(THETA), 0.0])
-
-
+# ---------------------------------------------------------------- incline (conftest's: 30 degrees)
 def incline_scene(scheme, mu, e=0.5, dt=1.0 / 600.0):
     scene = make_scene(scheme, dt=dt)
-    scene.add_collider(tc.Plane(point=(0.0, 0.0, 0.0), normal=INCLINE_N),
-                       material=tc.Material(restitution=e, friction=mu))
-    scene.add_particles(positions=[R * INCLINE_N], radius=R)
+    on_incline(scene, tc.Material(restitution=e, friction=mu), R)  # touching it, at R * INCLINE_N
     return scene
 
 
@@ -176,7 +168,7 @@ def test_conveyor_belt_friction_spin_up(scheme):
 @pytest.mark.parametrize("scheme", SCHEMES)
 def test_moving_sphere_kicks_resting_particle_to_2u(scheme, how):
     # A ball moving at u hits a particle at rest, e = 1, no friction, no gravity: the
-    # relative-velocity law (PHYSICS.md 2) sends it off at 2u. Measured exact (to 1e-12)
+    # relative-velocity law (docs/physics.md 2) sends it off at 2u. Measured exact (to 1e-12)
     # for elastic_contact, micro and simple.
     u = 1.0
     scene = make_scene(scheme, gravity=(0, 0, 0))
@@ -358,7 +350,7 @@ def test_start_outside_end_outside(scheme, e):
 
 
 def test_simple_scheme_can_leave_particles_inside():
-    # The contrast (PHYSICS.md 3, Implementation 1 "can leave particles inside"): one pass of
+    # The contrast (docs/physics.md 3, Implementation 1 "can leave particles inside"): one pass of
     # the law is not enough in the crevices; measured worst gap -3.9 r.
     assert _pile_min_gap("simple", 0.0) < -0.5 * R
 
@@ -380,7 +372,7 @@ def test_repulsion_pushes_particle_out_of_box(scheme):
         phis.append(box.signed_distance(scene.positions())[0])
     phis = np.array(phis)
     depth = R - phis
-    # Each substep removes min(repulsion x depth, repulsion_speed_limit x dt) of the depth
+    # Each substep removes min(push_fraction x depth, max_push_speed x dt) of the depth
     # (defaults 0.1 and 1 m/s): linear at first, then geometric.
     expected = [depth[0]]
     d = depth[0]
@@ -507,4 +499,4 @@ def test_flight_leaving_the_domain_and_coming_back_within_a_frame_is_caught():
     scene.add_particles(positions=[[0.0, 0.9999, 0.0]], velocities=[[0.0, 0.06, 0.0]], radius=R)
     with pytest.warns(RuntimeWarning, match="left the domain"):
         scene.step(1)
-    assert scene.status()[0] == "left_domain"
+    assert scene.particle_status()[0] == "left_domain"

@@ -1,4 +1,4 @@
-"""The black-box collision routine (PHYSICS.md 2) against hand-computed cases and a numpy
+"""The black-box collision routine (docs/physics.md 2) against hand-computed cases and a numpy
 re-implementation: `tc.collide` for a particle against an object, `tc.collide_pair` for two
 movable bodies."""
 
@@ -11,7 +11,7 @@ UP = np.array([0.0, 1.0, 0.0])
 
 
 def reference_collide(v, n, e, mu, v_obj=None, wet=0.0, wet_law="linear"):
-    """PHYSICS.md 2, steps 1-5, row by row in numpy."""
+    """docs/physics.md 2, steps 1-5, row by row in numpy."""
     v = np.atleast_2d(np.asarray(v, dtype=float))
     n = np.broadcast_to(np.asarray(n, dtype=float), v.shape)
     n = n / np.linalg.norm(n, axis=1, keepdims=True)

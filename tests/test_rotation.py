@@ -1,4 +1,4 @@
-"""Spinning particles (PenaltySolver(rotation=True)) against closed-form rigid-sphere answers.
+"""Spinning particles (PenaltySolver(spin=True)) against closed-form rigid-sphere answers.
 
 A solid sphere (I = 2/5 m r^2) on an incline of angle theta rolls without slipping at
 a = 5/7 g sin(theta) while mu_s >= 2/7 tan(theta), and slides at g (sin - mu cos) with its
@@ -15,25 +15,21 @@ import numpy as np
 import pytest
 
 import tai_coll as tc
+from conftest import DOWNHILL, FLOOR, G, THETA, dem_scene, on_incline, tilted_gravity
 
-G = 9.81
 R = 0.02
-THETA = np.radians(30.0)
-INCLINE_N = np.array([-np.sin(THETA), np.cos(THETA), 0.0])
-DOWNHILL = -np.array([np.cos(THETA), np.sin(THETA), 0.0])
 K = 1e5  # N/m, m = 1 kg
 
 
 def spinning_scene(dt=1 / 2000, substeps=20, gravity=(0.0, -G, 0.0), **solver):
     solver.setdefault("stiffness", K)
-    return tc.Scene(gravity=gravity, dt=dt, substeps=substeps, solver=tc.PenaltySolver(rotation=True, **solver))
+    return tc.Scene(gravity=gravity, dt=dt, substeps=substeps, solver=tc.PenaltySolver(spin=True, **solver))
 
 
 def incline(**material):
+    """conftest's 30 degree incline, the particle at its resting depth."""
     scene = spinning_scene()
-    scene.add_collider(tc.Plane(point=(0.0, 0.0, 0.0), normal=INCLINE_N), material=tc.Material(**material))
-    start = (R - G * np.cos(THETA) / K) * INCLINE_N  # at the resting depth
-    scene.add_particles(positions=[start], radius=R, mass=1.0)
+    start = on_incline(scene, tc.Material(**material), R, depth=G * np.cos(THETA) / K, mass=1.0)
     return scene, start
 
 
@@ -89,8 +85,7 @@ def test_rolling_friction_slows_rolling_down_an_incline():
 
 def floor_scene(velocity, spin, *, floor_velocity=None, **material):
     scene = spinning_scene(dt=1 / 4000)
-    scene.add_collider(tc.Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0)), material=tc.Material(**material),
-                       velocity=floor_velocity)
+    scene.add_collider(tc.Plane(**FLOOR), material=tc.Material(**material), velocity=floor_velocity)
     scene.add_particles(positions=[(0.0, R - G / K, 0.0)], velocities=[velocity], radius=R, mass=1.0)
     scene.set_angular_velocities([spin])
     return scene
@@ -150,15 +145,15 @@ def test_spin_needs_a_rotating_solver_and_valid_arguments():
     assert not scene.angular_velocities().any()
     with pytest.raises(ValueError, match="angular_velocities"):
         scene.set_angular_velocities([(0.0, 0.0, 1.0)])
-    with pytest.raises(TypeError, match="rotation"):
-        tc.PenaltySolver(hertz=100.0, rotation="yes")
+    with pytest.raises(TypeError, match="spin"):
+        tc.PenaltySolver(hertz=100.0, spin="yes")
     with pytest.raises(ValueError, match="rolling_friction"):
         tc.Material(rolling_friction=-0.1)
     spinning = spinning_scene()
     spinning.add_particles(positions=[(0.0, 1.0, 0.0)])
     with pytest.raises(ValueError, match="angular_velocities"):
         spinning.set_angular_velocities([(0.0, 0.0, 1.0), (0.0, 0.0, 1.0)])
-    assert "rotation=True" in repr(spinning.solver)
+    assert "spin=True" in repr(spinning.solver)
 
 
 # ---------------------------------------------------------------- between particles (DEM pairs)
@@ -169,23 +164,21 @@ def rolling_on_a_big_particle(springs, mu, mu_r, *, theta=np.radians(20.0), smal
     """A particle B (1 kg, r = R) resting on top of A (1e6 kg, radius 10 m) that rests on a
     floor, gravity tilted by theta along x: over the 10 mm B travels, A's top is an incline
     of theta. DEM pairs at 200 Hz, critically damped; the floor holds A (mu_r = 1). skin:
-    the pairs' Verlet lists (a fraction of A's radius)."""
+    the pairs' Verlet lists (m)."""
     hertz = 200.0
-    scene = spinning_scene(dt=5e-5, substeps=100, gravity=(G * np.sin(theta), -G * np.cos(theta), 0.0),
-                           stiffness=None, hertz=hertz)
-    scene.add_collider(tc.Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 1.0, 0.0)),
-                       material=tc.Material(friction=1.0, rolling_friction=1.0))
+    scene = spinning_scene(dt=5e-5, substeps=100, gravity=tilted_gravity(theta), stiffness=None, hertz=hertz)
+    scene.add_collider(tc.Plane(**FLOOR), material=tc.Material(friction=1.0, rolling_friction=1.0))
     sink = G * np.cos(theta) / (2 * np.pi * hertz) ** 2
     x, mass, radius = np.array([[0.0, BIG - sink, 0.0], [0.0, 2 * BIG + R - sink, 0.0]]), [1e6, 1.0], [BIG, R]
     if small_first:  # B in the first slot: the store's reordering swaps the two
         x, mass, radius = x[::-1], mass[::-1], radius[::-1]
     scene.add_particles(positions=x, mass=mass, radius=radius)
     settings = scene.enable_particle_collisions(material=tc.Material(friction=mu, rolling_friction=mu_r),
-                                                tangential_springs=springs, skin=skin)
+                                                tangential_springs=springs, verlet_skin=skin)
     return scene, settings, int(not small_first)
 
 
-@pytest.mark.parametrize("springs, skin", [(False, 0.0), (True, 0.0), (True, 5e-4)])
+@pytest.mark.parametrize("springs, skin", [(False, 0.0), (True, 0.0), (True, 5e-3)])
 @pytest.mark.parametrize("mu_r", [0.0, 0.2])
 def test_particle_rolls_over_another_at_the_rolling_incline_law(springs, skin, mu_r):
     # mu = 0.5 > 2/7 tan 20: B rolls over A with a = 5/7 g (sin - mu_r cos) (mu_r < tan 20).
@@ -226,10 +219,8 @@ def test_spinning_pair_conserves_momentum():
     # to round-off), the tangential force acts at the middle of the overlap, whose levers add
     # up to the distance, and the rolling torques are opposite: angular momentum about the
     # origin (orbital plus 2/5 m r^2 w) is kept to round-off too.
-    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=2e-5, substeps=10,
-                     solver=tc.PenaltySolver(hertz=100.0, damping_ratio=0.3, rotation=True))
-    scene.enable_particle_collisions(material=tc.Material(friction=0.6, rolling_friction=0.1),
-                                     tangential_springs=True)
+    scene = dem_scene(hertz=100.0, damping_ratio=0.3, spin=True,
+                      material=tc.Material(friction=0.6, rolling_friction=0.1), springs=True)
     v0 = np.array([[1.0, 0.0, 0.2], [-0.3, 0.1, 0.0]])
     w0 = np.array([[0.0, 0.0, 20.0], [5.0, 0.0, -10.0]])
     mass, radius = np.array([1.0, 3.0]), np.array([0.05, 0.04])

@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 SCENES = sorted((Path(__file__).resolve().parents[1] / "scenes").glob("*.py"))
+HEAVY = {"avalanche"}  # seconds of simulation on their own (1500 particles, 3600 substeps): marked slow
 
 
 def load(path: Path):
@@ -15,7 +16,8 @@ def load(path: Path):
     return module
 
 
-@pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
+@pytest.mark.parametrize("path", [pytest.param(p, id=p.stem, marks=[pytest.mark.slow] if p.stem in HEAVY else [])
+                                  for p in SCENES])
 def test_scene_script(path):
     module = load(path)
     scene = module.scene()

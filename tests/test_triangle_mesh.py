@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 import tai_coll as tc
-from tai_coll.geometry.triangle_mesh import MAX_SHELLS, build_grid
+from tai_coll.geometry.mesh_grid import MAX_SHELLS, bin_triangles
 from triangle_oracle import nearest, segment_first_hit, swept_contact, winding_number
 
 PHI_TOL = 1e-9      # distances (f64)
@@ -54,7 +54,7 @@ def test_grid_bins_every_triangle_in_every_cell_its_box_overlaps(rng):
     mesh = tc.TriangleMesh(torus(), cell_size=0.11)
     verts = mesh.vertices
     tris = mesh.faces
-    starts, ids = build_grid(verts, tris.astype(np.int32), mesh.grid_origin, mesh.cell_size, mesh.grid_dims)
+    starts, ids = bin_triangles(verts, tris.astype(np.int32), mesh.grid_origin, mesh.cell_size, mesh.grid_dims)
     nx, ny, nz = mesh.grid_dims
     expected = [[] for _ in range(nx * ny * nz)]
     for t, f in enumerate(tris):

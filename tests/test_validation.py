@@ -266,10 +266,10 @@ def test_init_again_with_the_same_arguments_keeps_the_runtime():
     (dict(max_iterations=0), ValueError, "max_iterations"),
     (dict(max_iterations=2.5), TypeError, "max_iterations"),
     (dict(elastic_iterations=-1), ValueError, "elastic_iterations"),
-    (dict(repulsion=0), ValueError, "repulsion"),
-    (dict(repulsion=-0.1), ValueError, "repulsion"),
-    (dict(repulsion=1.5), ValueError, "repulsion"),
-    (dict(repulsion_speed_limit=0), ValueError, "repulsion_speed_limit"),
+    (dict(push_fraction=0), ValueError, "push_fraction"),
+    (dict(push_fraction=-0.1), ValueError, "push_fraction"),
+    (dict(push_fraction=1.5), ValueError, "push_fraction"),
+    (dict(max_push_speed=0), ValueError, "max_push_speed"),
     (dict(slop=-1e-3), ValueError, "slop"),
     (dict(rest_speed=-1.0), ValueError, "rest_speed"),
     (dict(wet_law="sticky"), ValueError, "wet_law"),
@@ -418,7 +418,7 @@ def test_particle_leaving_the_domain_is_frozen_with_a_warning():
                         velocities=[[0.0, 0.0, 0.0], [3000.0, 0.0, 0.0], [0.0, 0.0, 0.0]], radius=0.01)
     with pytest.warns(RuntimeWarning, match="left the domain"):
         scene.step()
-    np.testing.assert_array_equal(scene.status(), ["active", "left_domain", "active"])
+    np.testing.assert_array_equal(scene.particle_status(), ["active", "left_domain", "active"])
     assert scene.stats()["left_domain"] == 1
     frozen = scene.positions()[1]
     assert frozen[0] > 1.0  # frozen where it left, outside the box
@@ -432,7 +432,7 @@ def test_particle_leaving_the_domain_is_frozen_with_a_warning():
     n = 3 * substeps
     np.testing.assert_allclose(x[[0, 2], 1], [free_fall_y(1.0, -9.81, dt, n), free_fall_y(0.5, -9.81, dt, n)],
                                atol=1e-12)
-    np.testing.assert_array_equal(scene.status(), ["active", "left_domain", "active"])
+    np.testing.assert_array_equal(scene.particle_status(), ["active", "left_domain", "active"])
 
 
 def test_non_finite_particle_raises_simulation_error_naming_it():
@@ -443,7 +443,7 @@ def test_non_finite_particle_raises_simulation_error_naming_it():
     scene.set_velocities([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1e308, 0.0, 0.0]])
     with pytest.raises(tc.SimulationError, match=r"indices \[2\]"):
         scene.step()
-    np.testing.assert_array_equal(scene.status(), ["active", "active", "non_finite"])
+    np.testing.assert_array_equal(scene.particle_status(), ["active", "active", "non_finite"])
     # frozen at its last finite state
     np.testing.assert_array_equal(scene.positions()[2], [0.0, 3.0, 0.0])
     assert np.all(np.isfinite(scene.positions())) and np.all(np.isfinite(scene.velocities()))

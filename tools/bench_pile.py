@@ -2,7 +2,7 @@
 
 N particles of radius 5 mm start on a jittered lattice (spacing 2.3 r, about 54 layers) in
 a box of five planes and fall into a pile, with particle-particle collisions on
-(tai_coll.solvers.pairs), in two variants:
+(tai_coll.solvers.pairs), in these variants:
 - impulse: the default ImpulseSolver, dt = 1/1000 s, 5 substeps per frame, pairs resolved
   by the default coloured Gauss-Seidel passes (1 contact + 2 projection);
 - jacobi: the same with method="jacobi" (4 + 4 Jacobi passes): the baseline for the above;
@@ -12,11 +12,11 @@ a box of five planes and fall into a pile, with particle-particle collisions on
   recommended dt = 75 us: 13 times the steps of the impulse variant for the same time;
 - dem-springs: the same with friction by tangential springs (tangential_springs=True:
   static friction that holds a contact without creeping);
-- dem-rolling: dem-springs with particles that spin (PenaltySolver(rotation=True)) and
+- dem-rolling: dem-springs with particles that spin (PenaltySolver(spin=True)) and
   rolling resistance (rolling_friction=ROLLING_FRICTION, a rolling spring per contact):
   grains that roll and topple, and stop;
 - any DEM variant with "-lists" (dem-lists, dem-springs-lists, dem-rolling-lists): the same
-  with the force kernel reading Verlet lists (ParticleCollisions(skin=DEM_SKIN): pairs within
+  with the force kernel reading Verlet lists (verlet_skin=DEM_SKIN radii: pairs within
   r_i + r_j + skin, rebuilt from the grid once some particle has moved half the skin) instead
   of querying the grid, sorted anew, every substep.
 Every frame from the start is timed (kernels compiled beforehand on a small pile), so the
@@ -41,7 +41,7 @@ SUBSTEPS = 5
 DT = {"impulse": 1.0 / 1000.0, "jacobi": 1.0 / 1000.0, "dem": 7.5e-5, "dem-springs": 7.5e-5, "dem-rolling": 7.5e-5}
 DEM_HERTZ = 200.0
 ROLLING_FRICTION = 0.1  # dem-rolling's mu_r (particles and walls): a lever arm of 0.1 r
-DEM_SKIN = 0.5  # the "-lists" variants' skin, a fraction of the radius (2.5 mm)
+DEM_SKIN = 0.5  # the "-lists" variants' skin, in radii (2.5 mm)
 VARIANTS = ("impulse", "jacobi", "dem", "dem-springs", "dem-rolling", "dem-lists", "dem-springs-lists",
             "dem-rolling-lists")
 
@@ -75,18 +75,18 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", 
         half = pile_half(n)
     lists = variant.endswith("-lists")
     variant = base_variant(variant)
-    rotation = variant == "dem-rolling"
-    solver = tc.PenaltySolver(hertz=DEM_HERTZ, rotation=rotation) if variant.startswith("dem") else None
+    spin = variant == "dem-rolling"
+    solver = tc.PenaltySolver(hertz=DEM_HERTZ, spin=spin) if variant.startswith("dem") else None
     scene = tc.Scene(dt=DT[variant], substeps=SUBSTEPS, solver=solver)
     walls = [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),
              ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]
-    material = tc.Material(restitution=0.2, friction=0.4, rolling_friction=ROLLING_FRICTION if rotation else 0.0)
+    material = tc.Material(restitution=0.2, friction=0.4, rolling_friction=ROLLING_FRICTION if spin else 0.0)
     for point, normal in walls:
         scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
     method = {"dem": {}, "dem-springs": {"tangential_springs": True}, "dem-rolling": {"tangential_springs": True},
               "jacobi": {"method": "jacobi"}}.get(variant, {"method": "gauss-seidel"})
     if lists:
-        method = dict(method, skin=DEM_SKIN)
+        method = dict(method, verlet_skin=DEM_SKIN * RADIUS)
     scene.enable_particle_collisions(material=material, reorder=reorder, **method)
     x = pile_positions(n, half)
     if shuffled:
@@ -97,22 +97,7 @@ def pile_scene(tc, n: int, half: float | None = None, variant: str = "impulse", 
 
 def state_bytes(scene) -> int:
     """Bytes of every per-particle array: the store, the pair solver's work arrays, the grid."""
-    total = 0
-    pairs = scene._pairs
-    particles = scene._particles
-    arrays = [particles.x, particles.v, particles.mass, particles.radius, particles.flags, particles.clearance,
-              particles.ids, pairs.delta]
-    arrays += list(particles._spare or ())  # the second set the store is permuted into (reorder)
-    if not hasattr(scene.solver, "kernel_constants"):  # the impulse variant's work arrays
-        arrays += [pairs.x1, pairs.v1, pairs.v_start, pairs.contacts]
-    arrays += [pairs.listed_at] if pairs.listed_at is not None else []  # with a skin only
-    if pairs.history is not None:  # tangential springs, and the second set they are permuted into
-        arrays += list(pairs.history) + list(pairs._history_spare)
-    if particles.w is not None:  # spin (rotation), its second set, and the pair torques
-        arrays += [particles.w, pairs.torque] + ([particles._w_spare] if particles._w_spare is not None else [])
-    for a in arrays + pairs.grid.arrays():
-        total += a.to_numpy().nbytes
-    return total
+    return scene.state_nbytes()
 
 
 def compile_pile_kernels(tc, variant: str):
@@ -129,21 +114,28 @@ def grid_build_s(scene) -> float:
     neighbour lists, every substep or, with a skin, when the lists no longer hold)."""
     import taichi as ti
 
-    pairs = scene._pairs
-    p = scene._particles
+    pairs = scene.particle_collisions
+    settings = pairs.settings
+    x, radius, flags = scene_arrays(scene)
+    n = scene.num_particles
+    dem = scene.solver.pair_model == "dem"
     times = []
     for _ in range(5):
         t = time.perf_counter()
-        dem = hasattr(scene.solver, "kernel_constants")
-        if dem and pairs.skin == 0.0:
-            pairs.grid.sort(p.x, p.radius, p.flags, p.count, 2 * RADIUS)
+        if dem and settings.verlet_skin == 0.0:
+            pairs.grid.sort(x, radius, flags, n, 2 * RADIUS)
         else:
-            reach = (0.0 if dem else pairs.margin * RADIUS) + pairs.skin * RADIUS
-            pairs.grid.build(p.x, p.radius, p.flags, p.count, 2 * RADIUS + reach, reach,
-                             forward=pairs.forward_lists and not dem)
+            reach = (0.0 if dem else settings.margin_length(RADIUS)) + settings.skin_length(RADIUS)
+            pairs.grid.build(x, radius, flags, n, 2 * RADIUS + reach, reach, forward=pairs.forward_lists and not dem)
         ti.sync()
         times.append(time.perf_counter() - t)
     return float(np.median(times))
+
+
+def scene_arrays(scene):
+    """The store's positions, radii and flags as kernels take them (for timing the grid alone)."""
+    store = scene._particles
+    return store.x, store.radius, store.flags
 
 
 def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuffled: bool = False,
@@ -163,7 +155,7 @@ def pile_case(tc, n: int, simulated_s: float, variant: str = "impulse", *, shuff
     median = float(np.median(times))
     dense = float(np.median(times[-max(1, frames // 4):]))
     grid_s = grid_build_s(scene)
-    builds = scene._pairs.list_builds
+    builds = scene.particle_collisions.list_builds
     nbytes = state_bytes(scene)
     overlap = scene.particle_overlap()
     v = scene.velocities()

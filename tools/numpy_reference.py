@@ -1,13 +1,13 @@
 """A NumPy re-implementation of tai_coll's default impulse scheme, for benchmarks and tests.
 
-PHYSICS.md 3, Implementation 3 ("elastic_contact", the default of `tai_coll.ImpulseSolver`)
+docs/physics.md 3, Implementation 3 ("elastic_contact", the default of `tai_coll.ImpulseSolver`)
 for static plane, sphere and box colliders, vectorised over particles with one index set
 per pass. It follows tai_coll/solvers/impulse.py and detection.py rule for rule:
 
 1. candidate by symplectic Euler: v1 = v + dt g, x1 = x + dt v1;
 2. last resort: for each collider the particle was already inside at time t beyond the
    slop (phi(x) < r - slop): the inelastic law on v1 (e = 0, friction as usual) and
-   x1 = x + dt v1 + min(repulsion depth, limit dt) n, collider after collider;
+   x1 = x + dt v1 + min(push_fraction depth, max_push_speed dt) n, collider after collider;
 3. elastic passes (`elastic_iterations`, default 1): detect with v(t); the law with the
    collider's restitution on v(t), its change added to the candidate (x1 += dt dv);
 4. contact passes (up to `max_iterations`): detect with v_avg = (x1 - x)/dt; the law with
@@ -54,7 +54,7 @@ SPHERE = 1
 BOX = 2
 KIND_NAMES = {PLANE: "plane", SPHERE: "sphere", BOX: "box"}
 
-# tai_coll.geometry.sdf / detection / crossing constants
+# tai_coll.geometry.analytic / marching, solvers.detection constants
 TINY = 1e-12
 APPROACH_EPS = 1e-6
 APPROACH_FLOOR = 1e-12
@@ -381,7 +381,7 @@ def _advance_crossing(col, P0, P1, r):
 
 # ----------------------------------------------------------------------------- response
 def respond(v, n, restitution, friction, wet_friction, wet_law="linear"):
-    """PHYSICS.md 2 (laws.py `respond`) on rows (3, k) of relative velocity v and normal n."""
+    """docs/physics.md 2 (laws.py `respond`) on rows (3, k) of relative velocity v and normal n."""
     vn = _dot(v, n)
     vt = v - vn * n
     dvn = -vn if np.ndim(restitution) == 0 and restitution == 0.0 else (1.0 + restitution) * (-vn)
@@ -418,8 +418,8 @@ class NumpyImpulseReference:
     """
 
     def __init__(self, *, colliders, positions, velocities=None, radius=0.005, gravity=(0.0, -9.81, 0.0),
-                 dt=1.0 / 600.0, substeps=10, max_iterations=8, elastic_iterations=1, repulsion=0.1,
-                 repulsion_speed_limit=1.0, slop=1e-3, wet_law="linear", dtype=np.float64,
+                 dt=1.0 / 600.0, substeps=10, max_iterations=8, elastic_iterations=1, push_fraction=0.1,
+                 max_push_speed=1.0, slop=1e-3, wet_law="linear", dtype=np.float64,
                  reuse_geometry=True):
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float32), np.dtype(np.float64)):
@@ -451,8 +451,8 @@ class NumpyImpulseReference:
         self.substeps = int(substeps)
         self.max_iterations = int(max_iterations)
         self.elastic_iterations = int(elastic_iterations)
-        self._repulsion = f(repulsion)
-        self._push_limit = f(repulsion_speed_limit) * self._dt
+        self._push_fraction = f(push_fraction)
+        self._push_limit = f(max_push_speed) * self._dt
         self.wet_law = wet_law
         self.reuse_geometry = bool(reuse_geometry)
         self._phi = None  # phi of each collider at the current positions, when known
@@ -476,7 +476,7 @@ class NumpyImpulseReference:
         for e in scene.colliders:
             if e.is_kinematic:
                 raise ValueError("moving colliders are not supported")
-        if np.any(scene.status() != "active"):
+        if np.any(scene.particle_status() != "active"):
             raise ValueError("every particle must be active")
         colliders = [StaticCollider.from_shape(e.shape, e.material, center=e.center, rotation=e.rotation,
                                                dtype=dtype) for e in scene.colliders]
@@ -514,7 +514,7 @@ class NumpyImpulseReference:
         dt = self._dt
         self.last_failsafe = np.empty(0, np.intp)
         x0, v0 = self._x, self._v
-        # integrate without collisions (PHYSICS.md 3): v1 = v + dt g, x1 = x + dt v1
+        # integrate without collisions (docs/physics.md 3): v1 = v + dt g, x1 = x + dt v1
         v1 = v0 + self._g_dt
         x1 = dt * v1
         x1 += x0
@@ -540,7 +540,7 @@ class NumpyImpulseReference:
             return (x0[:, S], x1[:, S], [p[S] for p in phi0], [p[S] for p in phi1], length[S],
                     _at(self._r, S), _at(self._slop, S))
 
-        # PHYSICS.md 3, Implementation 3: the elastic law on v(t), its change added to the candidate
+        # docs/physics.md 3, Implementation 3: the elastic law on v(t), its change added to the candidate
         S = None
         v_start = v0
         for _ in range(self.elastic_iterations):
@@ -566,7 +566,7 @@ class NumpyImpulseReference:
                 break
             C = hit if S is None else S[hit]
             if contact_pass == self.max_iterations:
-                # failsafe (PHYSICS.md 3): stop relative to the (still) collider
+                # failsafe (docs/physics.md 3): stop relative to the (still) collider
                 v1[:, C] = 0.0
                 x1[:, C] = x0[:, C]
                 for c in range(len(self.colliders)):
@@ -592,10 +592,10 @@ class NumpyImpulseReference:
         self.substep_count += 1
 
     def _repel_start_penetrations(self, x0, x1, v1, phi0):
-        """Last resort (PHYSICS.md 3, impulse.py): a particle already inside a collider at
+        """Last resort (docs/physics.md 3, impulse.py): a particle already inside a collider at
         time t beyond the slop keeps the penetration for this substep; its velocity gets the
         inelastic law (e = 0, friction as usual) and its position is pushed out along the
-        normal by min(repulsion depth, limit dt); collider after collider."""
+        normal by min(push_fraction depth, max_push_speed dt); collider after collider."""
         dt = self._dt
         for c, col in enumerate(self.colliders):
             ii = np.flatnonzero(phi0[c] < self._r_minus_slop)
@@ -608,7 +608,7 @@ class NumpyImpulseReference:
             v1[:, ii] = v_new
             x_new = dt * v_new
             x_new += x0[:, ii]
-            x_new += np.minimum(self._repulsion * depth, self._push_limit) * n
+            x_new += np.minimum(self._push_fraction * depth, self._push_limit) * n
             x1[:, ii] = x_new
 
     def _detect(self, x0, x1, phi0, phi1, length, r, slop, v):
@@ -695,7 +695,7 @@ def solver_options(solver) -> dict:
     if getattr(solver, "last_resort", None) is not None:
         raise ValueError("only the position push is implemented as the last resort; got a repulsion field")
     return dict(max_iterations=solver.max_iterations, elastic_iterations=solver.elastic_iterations,
-                repulsion=solver.repulsion, repulsion_speed_limit=solver.repulsion_speed_limit,
+                push_fraction=solver.push_fraction, max_push_speed=solver.max_push_speed,
                 slop=solver.slop, wet_law=solver.wet_law)
 
 

@@ -1,4 +1,4 @@
-"""Geometry queries (PHYSICS.md 1): signed distance, normal, trajectory crossing."""
+"""Geometry queries (docs/physics.md 1): signed distance, normal, trajectory crossing."""
 
 from .colliders import Box, Capsule, Collider, Cylinder, Plane, Sphere
 from .frames import rotation_matrix

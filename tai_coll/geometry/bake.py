@@ -1,6 +1,6 @@
 """Baking a triangle mesh into a signed-distance grid, in Taichi kernels.
 
-PHYSICS.md 1, triangle mesh row. Grid nodes sit at origin + h (i, j, k), stored in C order
+docs/physics.md 1, triangle mesh row. Grid nodes sit at origin + h (i, j, k), stored in C order
 of (nx, ny, nz). Phases, each a kernel with one top-level parallel loop:
 
 1. narrow band (parallel over triangles): every node within BAND_CELLS cells of a triangle

@@ -2,7 +2,9 @@
 
 A collider is a pure description: kind, a parameter vector and a rest pose (center and
 rotation). Motion and material are attached when it is added to a scene. Host-side queries
-(`signed_distance`, `normal`, `crossing`) run the same @ti.func the step kernels use.
+(`signed_distance`, `normal`, `crossing`) run the same @ti.func the step kernels use
+(geometry/queries.py). The shapes' device code is in analytic.py, the dispatch on kind in
+dispatch.py.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import validate
-from . import kinds
+from . import kinds, queries
 from .frames import align_y
 
 
@@ -54,10 +56,6 @@ class Collider:
         if x0.shape != x1.shape:
             raise ValueError(f"starts and ends must have the same shape; got {x0.shape} and {x1.shape}")
         radius = validate.real("radius", radius, low=0.0)
-        # Imported here, not at the top: queries imports sdf.py, which imports the modules of
-        # the array-backed colliders, which subclass Collider.
-        from . import queries
-
         return queries.segment_crossing(self, x0, x1, radius)
 
     def shape_data(self):
@@ -69,8 +67,6 @@ class Collider:
 
     def _query(self, points):
         pts = validate.points("points", points)
-        from . import queries
-
         return queries.signed_distance_and_normal(self, pts)
 
     def __repr__(self) -> str:

@@ -1,7 +1,7 @@
 """Sampling a signed-distance grid in kernels: trilinear phi and its analytic gradient.
 
-PHYSICS.md 1, triangle mesh row, the fast path (also the numpy-function `tc.Implicit`).
-A grid collider's shape data (scene.arrays.ShapeData, collider index ci):
+docs/physics.md 1, triangle mesh row, the fast path (also the numpy-function `tc.Implicit`).
+A grid collider's shape data (types.ShapeArgs, collider index ci):
 - ishape: [0] offset of its node values in `fpool` (written by the packer), [1] unused
   (int pool offset), [2:5] nodes (nx, ny, nz); values in C order of (nx, ny, nz);
 - fshape: [0:3] local position of node (0, 0, 0), [3] voxel size h (m), [4] a shift
@@ -85,7 +85,13 @@ def grid_sdf(g: ti.template(), ci, p: vec3):
 
 
 @ti.func
+def _evaluate(g: ti.template(), ci, kind, params, p: vec3):
+    """grid_sdf as marching.march_crossing calls an evaluator (kind and params unused)."""
+    return grid_sdf(g, ci, p)
+
+
+@ti.func
 def grid_crossing(g: ti.template(), ci, x0: vec3, x1: vec3, r):
     """Trajectory crossing against a grid: conservative advancement with the interpolant's
     Lipschitz bound, then bisection (geometry.marching)."""
-    return march_crossing(grid_sdf, g, ci, x0, x1, r, 1.0 / LIPSCHITZ)
+    return march_crossing(_evaluate, g, ci, 0, ti.math.vec4(0.0), x0, x1, r, 1.0 / LIPSCHITZ, False)

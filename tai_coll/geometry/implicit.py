@@ -1,4 +1,4 @@
-"""Implicit colliders: a user's function f(x) = 0 (PHYSICS.md 1, last row).
+"""Implicit colliders: a user's function f(x) = 0 (docs/physics.md 1, last row).
 
 f < 0 inside, f > 0 outside, in the collider's local frame. Two ways to give it:
 - a Taichi function `@ti.func def f(p: ti.math.vec3) -> float`: evaluated in the kernels

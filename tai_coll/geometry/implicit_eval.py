@@ -1,6 +1,7 @@
 """Kernel side of implicit colliders (implicit.py): the registry of users' Taichi functions,
-one collider kind and group bit each, and the dispatch that local_sdf / local_crossing call.
-Kept apart from the Implicit class so the dispatch files import no collider classes.
+one collider kind and group bit each, and the dispatch that geometry/dispatch.py calls
+(docs/physics.md 1, implicit row). Kept apart from the Implicit class: the device queries
+import no collider classes.
 """
 
 import numpy as np
@@ -20,13 +21,14 @@ _BY_FUNCTION: dict = {}
 
 
 def _make_evaluator(function, gradient):
-    """A @ti.func (g, ci, p) -> (phi, n) for one user function; fshape[0] = 1 / lipschitz,
+    """A @ti.func (g, ci, kind, params, p) -> (phi, n) for one user function (the evaluator
+    form marching.march_crossing calls; kind and params unused); fshape[0] = 1 / lipschitz,
     fshape[1] = the central-difference step (m)."""
 
     has_gradient = gradient is not None
 
     @ti.func
-    def evaluate(g: ti.template(), ci, p: vec3):
+    def evaluate(g: ti.template(), ci, kind, params, p: vec3):
         f = g.fshape[ci]
         phi = function(p) * f[0]
         grad = vec3(0.0, 0.0, 0.0)
@@ -63,24 +65,26 @@ def registered_in(groups: int):
 
 
 @ti.func
-def implicit_sdf(g: ti.template(), ci, kind: ti.i32, p: vec3):
+def implicit_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params, p: vec3):
+    """(phi, n) of the implicit kind `kind` among those compiled in (`groups`)."""
     phi = 0.0
     n = vec3(0.0, 1.0, 0.0)
-    for k in ti.static(range(len(registered_in(g.groups)))):
-        if kind == ti.static(registered_in(g.groups)[k][0]):
-            phi, n = ti.static(registered_in(g.groups)[k][1])(g, ci, p)
+    for k in ti.static(range(len(registered_in(groups)))):
+        if kind == ti.static(registered_in(groups)[k][0]):
+            phi, n = ti.static(registered_in(groups)[k][1])(g, ci, kind, params, p)
     return phi, n
 
 
 @ti.func
-def implicit_crossing(g: ti.template(), ci, kind: ti.i32, x0: vec3, x1: vec3, r):
+def implicit_crossing(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params, x0: vec3, x1: vec3, r):
     """Root finding along the segment: conservative advancement on phi = f / lipschitz."""
     hit = False
     t = 1.0
     n = vec3(0.0, 1.0, 0.0)
-    for k in ti.static(range(len(registered_in(g.groups)))):
-        if kind == ti.static(registered_in(g.groups)[k][0]):
-            hit, t, n = march_crossing(ti.static(registered_in(g.groups)[k][1]), g, ci, x0, x1, r, 1.0)
+    for k in ti.static(range(len(registered_in(groups)))):
+        if kind == ti.static(registered_in(groups)[k][0]):
+            hit, t, n = march_crossing(ti.static(registered_in(groups)[k][1]), g, ci, kind, params, x0, x1, r, 1.0,
+                                       False)
     return hit, t, n
 
 

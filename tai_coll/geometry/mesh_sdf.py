@@ -1,4 +1,4 @@
-"""MeshSDF: a triangle mesh as a baked signed-distance grid (the fast path of PHYSICS.md 1).
+"""MeshSDF: a triangle mesh as a baked signed-distance grid (the fast path of docs/physics.md 1).
 
 The mesh is baked once (geometry.bake, in Taichi kernels on the initialised arch) into
 a grid of signed distances in its local frame; kernels sample it trilinearly

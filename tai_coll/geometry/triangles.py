@@ -1,6 +1,6 @@
 """Exact queries against single triangles, shared by triangle meshes and height fields.
 
-PHYSICS.md 1, last rows of the table. Every function is a pure @ti.func on vertices given
+docs/physics.md 1, last rows of the table. Every function is a pure @ti.func on vertices given
 in one frame:
 
 - `closest_on_triangle`: the closest point of a triangle (Ericson, Real-Time Collision

@@ -4,22 +4,21 @@ Cells are cubes of side `cell_size` (at least the largest particle diameter, so 
 particles are never more than one cell apart); a particle's cell is floor(x / cell_size),
 so negative coordinates and particles far outside any initial bounds work the same way.
 Cells map into a table of buckets (a grid that wraps around, see `bucket_of`); a bucket holds
-any number of particles (no per-cell cap): counts, an exclusive prefix sum (parallel, by
-blocks), then a scatter place every particle in one flat array, sorted within each bucket by
-index so the result does not depend on thread timing.
+any number of particles (no per-cell cap): a counting sort (tai_coll/sorting.py: counts, an
+exclusive prefix sum, a scatter, each bucket sorted by index so the result does not depend on
+thread timing) places every particle in one flat array.
 A query visits the 27 cells around a particle (nine rows of three, each row one range of
 entries where it does not wrap around the table, see `row_part`) and keeps the particles
 within reach (two cells can share a bucket, but never two cells near each other).
+Kernels that query the grid take its sort as `HashGrid.args` (types.GridArgs) and its lists
+as `HashGrid.lists` (types.ListArgs).
 """
 
 import numpy as np
 import taichi as ti
 
-from ..scene import particles as P
-
-vec3 = ti.math.vec3
-vec4 = ti.math.vec4
-ivec3 = ti.math.ivec3
+from .. import sorting
+from ..types import ACTIVE, ARRAY, GridArgs, ListArgs, ivec3, vec3, vec4
 
 NEIGHBOUR_CAPACITY = 48  # neighbours kept per particle; more are counted as overflow
 
@@ -51,39 +50,10 @@ def count_step(x: ti.template(), flags: ti.template(), n, inv_cell, n_buckets, b
         # particles no longer simulated go to a bucket of their own past the table's end,
         # which no query visits: the entries are then an ordering of all n particles
         h = n_buckets
-        if flags[i] == P.ACTIVE:
+        if flags[i] == ACTIVE:
             h = bucket_of(cell_of(x[i], inv_cell), bits)
         bucket[i] = h
         rank[i] = ti.atomic_add(counts[h], 1)
-
-
-SCAN_BLOCK = 1024  # buckets per block of the parallel prefix sum
-
-
-@ti.func
-def prefix_sum_step(counts: ti.template(), n_buckets, block_sums: ti.template(),
-                    # outputs
-                    starts: ti.template()):
-    """Exclusive prefix sum of the counts into starts[0..n_buckets] (starts[n_buckets] is
-    the total), in three phases: block totals in parallel, a serial scan of the (few)
-    block totals, then each block's own scan in parallel from its offset."""
-    n_blocks = (n_buckets + SCAN_BLOCK - 1) // SCAN_BLOCK
-    for b in range(n_blocks):
-        total = 0
-        for k in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, n_buckets)):
-            total += counts[k]
-        block_sums[b] = total
-    starts[n_buckets] = 0  # the running total
-    ti.loop_config(serialize=True)
-    for b in range(n_blocks):
-        total = block_sums[b]
-        block_sums[b] = starts[n_buckets]
-        starts[n_buckets] += total
-    for b in range(n_blocks):
-        running = block_sums[b]
-        for k in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, n_buckets)):
-            starts[k] = running
-            running += counts[k]
 
 
 @ti.func
@@ -92,23 +62,6 @@ def scatter_step(bucket: ti.template(), rank: ti.template(), starts: ti.template
                  entries: ti.template()):
     for i in range(n):
         entries[starts[bucket[i]] + rank[i]] = i
-
-
-@ti.func
-def sort_buckets_step(starts: ti.template(), n_buckets,
-                      # in-out
-                      entries: ti.template()):
-    # Insertion sort inside each bucket: buckets are short, and sorted buckets make the
-    # neighbour order, and so every sum over neighbours, independent of thread timing.
-    for b in range(n_buckets):
-        begin = starts[b]
-        for k in range(begin + 1, starts[b + 1]):
-            value = entries[k]
-            m = k - 1
-            while m >= begin and entries[m] > value:
-                entries[m + 1] = entries[m]
-                m -= 1
-            entries[m + 1] = value
 
 
 @ti.func
@@ -123,17 +76,15 @@ def gather_step(x: ti.template(), radius: ti.template(), entries: ti.template(),
 
 
 @ti.kernel
-def _sort(x: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(), n: ti.i32, inv_cell: float,
-          n_buckets: ti.i32, bits: ivec3,
+def _sort(x: ARRAY, radius: ARRAY, flags: ARRAY, n: ti.i32, inv_cell: float, n_buckets: ti.i32, bits: ivec3,
           # outputs
-          bucket: ti.types.ndarray(), rank: ti.types.ndarray(), counts: ti.types.ndarray(),
-          block_sums: ti.types.ndarray(), starts: ti.types.ndarray(), entries: ti.types.ndarray(),
-          sorted_xr: ti.types.ndarray()):
+          bucket: ARRAY, rank: ARRAY, counts: ARRAY, block_sums: ARRAY, starts: ARRAY, entries: ARRAY,
+          sorted_xr: ARRAY):
     """The counting sort in one launch: its steps' parallel loops run one after the other."""
     count_step(x, flags, n, inv_cell, n_buckets, bits, bucket, rank, counts)
-    prefix_sum_step(counts, n_buckets + 1, block_sums, starts)
+    sorting.exclusive_scan(counts, n_buckets + 1, block_sums, starts)
     scatter_step(bucket, rank, starts, n, entries)
-    sort_buckets_step(starts, n_buckets + 1, entries)
+    sorting.sort_bins(starts, n_buckets + 1, entries)
     gather_step(x, radius, entries, starts, n_buckets, sorted_xr)
 
 
@@ -193,34 +144,34 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: 
 
 
 @ti.kernel
-def _neighbours(flags: ti.types.ndarray(), n: ti.i32, n_buckets: ti.i32, inv_cell: float, bits: ivec3, margin: float,
-                forward: ti.i32, starts: ti.types.ndarray(), entries: ti.types.ndarray(), sorted_xr: ti.types.ndarray(),
+def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, forward: ti.i32,
                 # outputs
-                neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
-                touching: ti.types.ndarray(), overflow: ti.types.ndarray()):
+                lists: ListArgs, touching: ARRAY, overflow: ARRAY):
+    """Each particle's neighbours within r_i + r_j + margin (forward: only those after it in
+    the sorted entries), and how many of them touch it."""
     # One particle per iteration, visited in bucket order (its own data and the cells
     # around it were just read by its bucket neighbours).
-    for slot in range(starts[n_buckets]):
-        i = entries[slot]
+    for slot in range(grid.starts[grid.n_buckets]):
+        i = grid.entries[slot]
         found = 0
         touch = 0
-        own = sorted_xr[slot]
+        own = grid.sorted_xr[slot]
         xi = own.xyz
         home = cell_of(xi, inv_cell)
         for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):  # query_range's rows, unrolled: the hot path
             for part in range(3):
-                begin, end = row_part(home + ivec3(-1, dy, dz), part, bits, starts)
+                begin, end = row_part(home + ivec3(-1, dy, dz), part, grid.bits, grid.starts)
                 # forward lists: only the entries after this one (most rows end before it)
                 found, touch = _scan_row(ti.select(forward != 0, ti.max(begin, slot + 1), begin), end, slot, i, xi,
-                                         own.w, margin, found, touch, entries, sorted_xr, neighbours)
+                                         own.w, margin, found, touch, grid.entries, grid.sorted_xr, lists.neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
-        neighbour_count[i] = found
+        lists.neighbour_count[i] = found
         touching[i] = touch
     for i in range(n):
-        if flags[i] != P.ACTIVE:
-            neighbour_count[i] = 0
+        if flags[i] != ACTIVE:
+            lists.neighbour_count[i] = 0
             touching[i] = 0
 
 
@@ -236,8 +187,10 @@ class HashGrid:
         self.list_capacity = 0
         self.forward = False  # whether the lists hold each pair once (see build)
         self.n_buckets = 0
+        self.inv_cell = 1.0  # 1 / cell size of the last sort
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
+        self._args = self._lists = None  # the argument packs (see args, lists)
 
     def _ensure(self, n: int):
         if n <= self.capacity:
@@ -252,10 +205,11 @@ class HashGrid:
         self.rank = ti.ndarray(ti.i32, shape=capacity)
         self.entries = ti.ndarray(ti.i32, shape=capacity)
         self.sorted_xr = ti.Vector.ndarray(4, float, shape=capacity)
-        # one bucket more than the table: the particles no longer simulated (see _count)
+        # one bucket more than the table: the particles no longer simulated (see count_step)
         self.counts = ti.ndarray(ti.i32, shape=self.n_buckets + 1)
         self.starts = ti.ndarray(ti.i32, shape=self.n_buckets + 2)
-        self.block_sums = ti.ndarray(ti.i32, shape=self.n_buckets // SCAN_BLOCK + 2)
+        self.block_sums = ti.ndarray(ti.i32, shape=sorting.scan_blocks(self.n_buckets))
+        self._args = None
 
     def _ensure_lists(self):
         """The neighbour lists, only for users of `build` (kernels that query the grid
@@ -267,6 +221,22 @@ class HashGrid:
         self.neighbours = ti.ndarray(ti.i32, shape=(self.capacity, NEIGHBOUR_CAPACITY + 1))
         self.neighbour_count = ti.ndarray(ti.i32, shape=self.capacity)
         self.touching = ti.ndarray(ti.i32, shape=self.capacity)
+        self._lists = None
+
+    @property
+    def args(self) -> GridArgs:
+        """The sort as kernels that query the grid take it (types.GridArgs; with `inv_cell`)."""
+        if self._args is None:
+            self._args = GridArgs(n_buckets=self.n_buckets, bits=self.bits, starts=self.starts, entries=self.entries,
+                                  sorted_xr=self.sorted_xr)
+        return self._args
+
+    @property
+    def lists(self) -> ListArgs:
+        """The neighbour lists of the last `build` as kernels take them (types.ListArgs)."""
+        if self._lists is None:
+            self._lists = ListArgs(neighbours=self.neighbours, neighbour_count=self.neighbour_count)
+        return self._lists
 
     def arrays(self) -> list:
         """Every array the grid holds (for memory accounting)."""
@@ -274,7 +244,7 @@ class HashGrid:
         return [self.bucket, self.rank, self.entries, self.sorted_xr, self.counts, self.starts, self.block_sums] + lists
 
     def build(self, x, radius, flags, n: int, cell_size: float, margin: float, forward: bool = False):
-        """Sort the first n particles (positions x, an ndarray) into buckets and collect, for
+        """Sort the first n particles (positions x, an array) into buckets and collect, for
         each, the particles closer than r_i + r_j + margin (needs cell_size >= 2 r_max + margin),
         and how many of them touch it (closer than r_i + r_j) in `touching`. forward: list
         only the particles after it in the sorted entries (each pair once, in the list of the
@@ -282,21 +252,20 @@ class HashGrid:
         self.sort(x, radius, flags, n, cell_size)
         self._ensure_lists()
         self.forward = bool(forward)
-        _neighbours(flags, n, self.n_buckets, 1.0 / cell_size, self.bits, margin, int(forward), self.starts,
-                    self.entries, self.sorted_xr, self.neighbours, self.neighbour_count, self.touching, self.overflow)
+        _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin, forward=int(forward),
+                    lists=self.lists, touching=self.touching, overflow=self.overflow)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
-        and radii in bucket order, for kernels that query the grid themselves (`query_range`).
-        Returns what such a kernel takes, in this order: (n_buckets, 1 / cell_size, bits,
-        starts, entries, sorted_xr). entries[:n] is an ordering of all n particles: the
+        and radii in bucket order, for kernels that query the grid themselves (`query_range`,
+        with `args` and `inv_cell`). entries[:n] is an ordering of all n particles: the
         simulated ones in bucket order (starts[n_buckets] of them), then the others, so the
         particle store can be put in cell order by it (`ParticleStore.permute`)."""
         self._ensure(n)
-        inv_cell = 1.0 / cell_size
-        _sort(x, radius, flags, n, inv_cell, self.n_buckets, self.bits, self.bucket, self.rank, self.counts,
-              self.block_sums, self.starts, self.entries, self.sorted_xr)
-        return self.n_buckets, inv_cell, self.bits, self.starts, self.entries, self.sorted_xr
+        self.inv_cell = 1.0 / cell_size
+        _sort(x=x, radius=radius, flags=flags, n=n, inv_cell=self.inv_cell, n_buckets=self.n_buckets, bits=self.bits,
+              bucket=self.bucket, rank=self.rank, counts=self.counts, block_sums=self.block_sums, starts=self.starts,
+              entries=self.entries, sorted_xr=self.sorted_xr)
 
     def neighbour_lists(self, n: int):
         """Host copies: a list of index arrays, one per particle (for tests and debugging); from

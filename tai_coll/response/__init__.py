@@ -1,4 +1,4 @@
-"""Response laws (PHYSICS.md 2): what a collision does to velocities."""
+"""Response laws (docs/physics.md 2): what a collision does to velocities."""
 
 from .collide import collide, collide_pair
 

@@ -1,13 +1,11 @@
-"""`collide()` and `collide_pair()`: the black-box routine of PHYSICS.md 2 on numpy arrays."""
+"""`collide()` and `collide_pair()`: the black-box routine of docs/physics.md 2 on numpy arrays."""
 
 
 import numpy as np
 import taichi as ti
 
 from .. import runtime, validate
-from .laws import WET_EXPONENTIAL, WET_LINEAR, respond, respond_pair, vec3
-
-WET_LAWS = {"linear": WET_LINEAR, "exponential": WET_EXPONENTIAL}
+from .laws import WET_LAWS, respond, respond_pair, vec3
 
 
 @ti.func
@@ -70,7 +68,7 @@ def _law_args(restitution, friction, wet_friction, wet_law):
 
 def collide(v, n, restitution=0.5, friction=0.0, object_velocity=None, *, wet_friction=0.0,
             wet_law="linear") -> np.ndarray:
-    """New particle velocities after colliding with an object (PHYSICS.md 2).
+    """New particle velocities after colliding with an object (docs/physics.md 2).
 
     v: (N, 3) or (3,) particle velocities (m/s). n: outward unit normals of the object,
     (N, 3) or one (3,) for all (normalised here). restitution e in [0, 1]; friction mu >= 0
@@ -96,7 +94,7 @@ def collide(v, n, restitution=0.5, friction=0.0, object_velocity=None, *, wet_fr
 
 def collide_pair(va, vb, n, mass_a, mass_b, restitution=0.5, friction=0.0, *, wet_friction=0.0,
                  wet_law="linear"):
-    """Equal and opposite impulses between two movable bodies (PHYSICS.md 2).
+    """Equal and opposite impulses between two movable bodies (docs/physics.md 2).
 
     n: unit normal pointing from body b to body a. mass_a, mass_b: kg (> 0; np.inf makes a
     body immovable). Returns (va_new, vb_new); the total momentum is unchanged.

@@ -1,4 +1,4 @@
-"""The collision routine of PHYSICS.md 2, the one copy used by every kernel and by `collide()`.
+"""The collision routine of docs/physics.md 2, the one copy used by every kernel and by `collide()`.
 
 Works on relative velocity only: callers subtract the object's (surface) velocity first
 and add it back after, so the same law serves still and moving colliders alike.
@@ -12,13 +12,14 @@ TINY = 1e-12  # below this tangential speed (m/s) the friction scale is moot: v_
 
 WET_LINEAR = 0       # v_T *= max(0, 1 - D dv_N)   (seed 001)
 WET_EXPONENTIAL = 1  # v_T *= exp(-D dv_N)          (seed 001's unconditionally stable form)
+WET_LAWS = {"linear": WET_LINEAR, "exponential": WET_EXPONENTIAL}
 
 
 @ti.func
 def respond(v_rel: vec3, n: vec3, restitution, friction, wet_friction, wet_law: ti.template()):
     """New relative velocity after a collision with outward unit normal n.
 
-    PHYSICS.md 2: only an approaching contact (v_N < 0) changes; v_N_new = -e v_N, so
+    docs/physics.md 2: only an approaching contact (v_N < 0) changes; v_N_new = -e v_N, so
     dv_N = (1 + e)|v_N|; dry Coulomb friction v_T *= max(0, 1 - mu dv_N / |v_T|) (static
     when the bracket reaches 0); then wet friction from D = wet_friction.
     Returns (v_rel_new, dv_N).
@@ -43,7 +44,7 @@ def respond(v_rel: vec3, n: vec3, restitution, friction, wet_friction, wet_law: 
 @ti.func
 def respond_pair(va: vec3, vb: vec3, inv_ma, inv_mb, n: vec3, restitution, friction,
                  wet_friction, wet_law: ti.template()):
-    """Two movable bodies (PHYSICS.md 2): n points from b to a.
+    """Two movable bodies (docs/physics.md 2): n points from b to a.
 
     The law gives the wanted change of relative velocity; the impulse I solves
     dv_rel = (1/m_a + 1/m_b) I and is applied as +I/m_a, -I/m_b, so momentum is conserved.

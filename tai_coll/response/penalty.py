@@ -1,4 +1,4 @@
-"""Penalty force laws of PHYSICS.md 4 (seed 002), the one copy used by every kernel.
+"""Penalty force laws of docs/physics.md 4 (seed 002), the one copy used by every kernel.
 
 Forces, not impulses: a zero-length viscoelastic spring at the point of entry pushes a
 penetrating particle out, friction is a force bounded by mu |f_n|, and repulsion fields act
@@ -28,7 +28,7 @@ BACKWARD_EULER = 1
 
 @ti.func
 def spring_damper(depth, vn, stiffness, damping):
-    """PHYSICS.md 4, seed 002: f_n = k_s depth - k_d (v_rel . n) along the outward normal,
+    """docs/physics.md 4, seed 002: f_n = k_s depth - k_d (v_rel . n) along the outward normal,
     for a penetration `depth` > 0 and relative normal velocity vn. Only pushing: f_n >= 0
     (a separating particle is not held back by the damper)."""
     return ti.max(0.0, stiffness * depth - damping * vn)
@@ -52,7 +52,7 @@ def spring_damper_implicit(depth, vn, an, mass, stiffness, damping, dt):
 
 @ti.func
 def friction_force(vt_pred: vec3, fn, mass, dt, static_friction, kinetic_friction, viscous_friction) -> vec3:
-    """Coulomb friction as a force, static and kinetic (PHYSICS.md 4), regularised.
+    """Coulomb friction as a force, static and kinetic (docs/physics.md 4), regularised.
 
     vt_pred: the tangential relative velocity the particle would have at the end of the
     substep without friction (its velocity plus dt times every other force so far). The
@@ -127,7 +127,7 @@ def repulsion_profile(d, profile, strength, decay, reach):
     """f(d) of a repulsion field at gap d (m) between particle and surface (seed 002):
     exponential strength exp(-decay d), or linear max(0, strength - decay d); zero beyond
     `reach`. Inside (d < 0) both continue along their tangent at d = 0,
-    strength (1 - decay d) and strength - decay d: growing with the depth (PHYSICS.md 3's
+    strength (1 - decay d) and strength - decay d: growing with the depth (docs/physics.md 3's
     last resort, a push proportional to penetration), and bounded."""
     f = 0.0
     if d < reach:
@@ -157,3 +157,30 @@ def apply_repulsion(v_rel: vec3, n: vec3, d, mass, dt, kind, profile, strength, 
     elif kind == FIELD_FORCE:
         out = v_rel + (dt * f / mass) * n
     return out
+
+
+@ti.func
+def tangential_spring(spring: vec3, nrm: vec3, vt: vec3, fn, stiff, damp, ratio, dt, static_friction,
+                      kinetic_friction, viscous_friction):
+    """Coulomb friction with a tangential spring (Cundall and Strack; docs/physics.md 5): the
+    static friction of docs/physics.md 4 held by the contact's own displacement. `spring` is
+    the tangential displacement the contact has accumulated since it formed (zero for a new
+    contact), projected onto the tangent plane of the current normal nrm and stretched by dt vt. (The contact plane
+    turns by a small angle a per substep, and the projection shortens the spring by 1 -
+    cos(a), second order in a; docs/design-notes.md has why it is not turned.) The
+    force -k_t spring - D_t vt (k_t = ratio k_n, D_t = ratio D_n) holds while it is at most
+    mu_s f_n; beyond, the contact slides: kinetic friction mu_k f_n (plus the wet term
+    mu_v f_n |vt|) along the same direction, and the spring is cut back to the length that
+    gives that force. Every step is odd in (nrm, vt, spring), so the two particles of a
+    pair, which each keep the pair's spring, see exactly opposite springs and forces.
+    Returns (force, spring)."""
+    spring = spring - spring.dot(nrm) * nrm + dt * vt
+    kt = ratio * stiff
+    dt_damp = ratio * damp
+    force = -kt * spring - dt_damp * vt
+    limit = static_friction * fn
+    if force.norm_sqr() > limit * limit:
+        slide = (kinetic_friction + viscous_friction * vt.norm()) * fn
+        force *= slide / force.norm()
+        spring = -(force + dt_damp * vt) / ti.max(kt, 1e-30)
+    return force, spring

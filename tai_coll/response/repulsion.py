@@ -1,4 +1,4 @@
-"""Repulsion fields (PHYSICS.md 4, seed 002): a collider that pushes particles away before
+"""Repulsion fields (docs/physics.md 4, seed 002): a collider that pushes particles away before
 they touch it, with a strength that falls off with distance.
 
 Attach one to a collider (`scene.add_collider(..., repulsion=tc.RepulsionField(...))`, read

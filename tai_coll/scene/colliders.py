@@ -1,9 +1,10 @@
 """The collider table: what the step kernels see of every collider in a scene.
 
-Kernels never hold Python collider objects. They loop over this table (one SoA field per
-attribute) and dispatch on `kind`. Each collider has two poses, at the start (t) and end
-(t + dt) of the current substep: interference is tested at the end pose (PHYSICS.md 3,
-moving objects), "already penetrating" at the start pose.
+Kernels never hold Python collider objects. They loop over this table (one array per
+attribute, handed to kernels as one argument pack: `args`, types.ColliderArgs) and dispatch
+on `kind`. Each collider has two poses, at the start (t) and end (t + dt) of the current
+substep: interference is tested at the end pose (docs/physics.md 3, moving objects),
+"already penetrating" at the start pose.
 """
 
 
@@ -16,8 +17,7 @@ from .. import runtime
 from ..geometry import kinds
 from ..geometry.colliders import Collider
 from ..materials import Material
-
-vec3 = ti.math.vec3
+from ..types import ColliderArgs
 
 
 @dataclass
@@ -43,6 +43,7 @@ class ColliderTable:
         self.entries: list[ColliderEntry] = []
         self.capacity = 0
         self.version = 0  # counts uploads: colliders added, moved or changed
+        self._args = None  # the argument pack, built when first asked for (see `args`)
         self._allocate(capacity)
 
     def _allocate(self, capacity):
@@ -60,12 +61,19 @@ class ColliderTable:
         self.fpool = ti.ndarray(float, shape=1)
         self.ipool = ti.ndarray(ti.i32, shape=1)
         self.capacity = capacity
+        self._args = None
 
-    def kernel_args(self):
-        """The arrays in the order `ColliderArrays` takes them."""
-        return (self.kind, self.params, self.material, self.center0, self.rotation0, self.center1,
-                self.rotation1, self.velocity, self.angular_velocity, self.ishape, self.fshape, self.fpool,
-                self.ipool)
+    @property
+    def args(self) -> ColliderArgs:
+        """The table as kernels take it (types.ColliderArgs), rebuilt only when its arrays or
+        its count change."""
+        if self._args is None:
+            self._args = ColliderArgs(count=len(self.entries), kind=self.kind, params=self.params,
+                                      material=self.material, center0=self.center0, rotation0=self.rotation0,
+                                      center1=self.center1, rotation1=self.rotation1, velocity=self.velocity,
+                                      angular_velocity=self.angular_velocity, ishape=self.ishape, fshape=self.fshape,
+                                      fpool=self.fpool, ipool=self.ipool)
+        return self._args
 
     def __len__(self):
         return len(self.entries)
@@ -87,6 +95,7 @@ class ColliderTable:
             if hasattr(motion, "velocity"):
                 entry.velocity, entry.angular_velocity = motion.velocity, motion.angular_velocity
         self.entries.append(entry)
+        self._args = None
         if len(self.entries) > self.capacity:
             self._allocate(2 * self.capacity)
         self.upload_all()
@@ -147,8 +156,10 @@ class ColliderTable:
         self.fshape.from_numpy(fshape)
         if self.fpool.shape[0] != f_used:
             self.fpool = ti.ndarray(float, shape=f_used)
+            self._args = None
         if self.ipool.shape[0] != i_used:
             self.ipool = ti.ndarray(ti.i32, shape=i_used)
+            self._args = None
         self.fpool.from_numpy(np.concatenate(fblocks))
         self.ipool.from_numpy(np.concatenate(iblocks))
 

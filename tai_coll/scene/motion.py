@@ -1,6 +1,6 @@
 """Kinematic motion of colliders: where a collider is at time t, and how fast its surface moves.
 
-PHYSICS.md 3, moving objects. A pose is (center, R). Motion is either constant (a linear
+docs/physics.md 3, moving objects. A pose is (center, R). Motion is either constant (a linear
 velocity of the center and an angular velocity about the center) or a user callable
 t -> (translation, rotation_matrix) applied to the collider's rest pose.
 """

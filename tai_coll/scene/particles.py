@@ -1,23 +1,14 @@
 """The particle store: one array per quantity (structure of arrays), with a capacity that
 grows by doubling. The public order (what `read` returns and `write` takes) is the order of
 `add` and never changes; the storage order may (`permute` puts particles near each other
-in space next to each other in memory), and `ids` says which particle is in which slot."""
+in space next to each other in memory), and `ids` says which particle is in which slot.
+Kernels take the store's arrays as one argument pack (`args`, types.ParticleArgs)."""
 
 
 import numpy as np
 import taichi as ti
 
-
-ACTIVE = 0
-LEFT_DOMAIN = 1  # left the scene's domain box: frozen where it left, no longer simulated
-NON_FINITE = 2   # its state turned NaN/inf: frozen at its last finite state
-
-# Slots of the per-scene event counters.
-STAT_FAILSAFE = 0
-STAT_REPULSION = 1
-STAT_NON_FINITE = 2
-STAT_LEFT_DOMAIN = 3
-STAT_NAMES = ("failsafe", "repulsion", "non_finite", "left_domain")
+from ..types import STAT_NAMES, ParticleArgs, SpinArgs
 
 QUANTITIES = ("x", "v", "mass", "radius", "flags")
 
@@ -76,9 +67,10 @@ class ParticleStore:
         self.stats.fill(0)
         self.totals = dict.fromkeys(STAT_NAMES, 0)
         # `version` counts the times the state may have changed outside the impulse solver's
-        # step kernel; the impulse solver keeps each particle's clearance (how far it can move
-        # before it could touch a collider) between launches and trusts it only while
-        # `clearance_key` (versions of store and collider table at its last launch) holds.
+        # step kernel (a kernel that moves particles calls `mark_moved` first); the impulse
+        # solver keeps each particle's clearance (how far it can move before it could touch
+        # a collider) between launches and trusts it only while `clearance_key` (versions of
+        # store and collider table at its last launch) holds.
         self.version = 0
         self.clearance_key = None
         # `edits` counts the changes of the stored arrays from outside the kernels (writes
@@ -88,6 +80,8 @@ class ParticleStore:
         # Angular velocities w (rad/s), kept only once a solver that spins particles asks for
         # them (enable_spin): the other solvers treat particles as points.
         self.w = None
+        self._args = None  # the argument packs, built when first asked for (see `args`)
+        self._spin_args = None
         self._allocate(max(int(capacity), 1))
 
     def _quantities(self) -> tuple:
@@ -98,6 +92,7 @@ class ParticleStore:
         if self.w is None:
             self.w = _spin_array(self.capacity)
             self._w_spare = None
+            self._spin_args = None
             self.edits += 1
 
     def _allocate(self, capacity: int):
@@ -114,6 +109,7 @@ class ParticleStore:
         self.capacity = capacity
         self.version += 1
         self.edits += 1
+        self._args = self._spin_args = None
         if old is not None:  # rewritten in public order: storage order back to the identity
             for name, values in old.items():
                 self._write_range(name, 0, values)
@@ -142,6 +138,7 @@ class ParticleStore:
         if self.w is not None:
             self._write_range("w", start, np.zeros_like(x))
         self.count += n
+        self._args = None
         if n:
             self.max_radius = max(self.max_radius, float(np.max(radius)))
         return slice(start, start + n)
@@ -197,17 +194,42 @@ class ParticleStore:
                 self._w_spare = _spin_array(self.capacity)
             _permute_spin(order, n, self.w, self._w_spare)
             self.w, self._w_spare = self._w_spare, self.w
+        self._args = self._spin_args = None
         self.permuted = True
         self._ids_host = None
         self.edits += 1
 
-    def kernel_args(self, moves: bool = True):
-        """The arrays in the order `ParticleArrays` takes them. A kernel given them may move
-        the particles (unless the caller says `moves=False`), so the impulse solver's stored
-        clearances stop counting."""
-        if moves:
-            self.version += 1
-        return self.x, self.v, self.mass, self.radius, self.flags, self.stats
+    @property
+    def args(self) -> ParticleArgs:
+        """The store's arrays as kernels take them (types.ParticleArgs), rebuilt only when the
+        arrays or the count change."""
+        if self._args is None:
+            self._args = ParticleArgs(count=self.count, x=self.x, v=self.v, mass=self.mass, radius=self.radius,
+                                      flags=self.flags, stats=self.stats)
+        return self._args
+
+    @property
+    def spin_args(self) -> SpinArgs:
+        """The angular velocities as kernels take them (types.SpinArgs); enable_spin first."""
+        if self._spin_args is None:
+            if self.w is None:
+                raise RuntimeError("spin_args: the store keeps no angular velocities; call enable_spin() first")
+            self._spin_args = SpinArgs(w=self.w)
+        return self._spin_args
+
+    def mark_moved(self):
+        """A kernel is about to move the particles: the clearances the impulse solver kept
+        (clearances_hold) stop counting."""
+        self.version += 1
+
+    def arrays(self) -> list:
+        """Every array the store holds (for memory accounting): the quantities, the second set
+        `permute` writes into, and the angular velocities with theirs."""
+        held = [self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids]
+        held += list(self._spare or ())
+        if self.w is not None:
+            held += [self.w] + ([self._w_spare] if self._w_spare is not None else [])
+        return held
 
     def collect_stats(self) -> dict:
         """Move the kernels' event counts into `totals`; returns the counts just collected."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -9,13 +10,15 @@ import numpy as np
 from .. import runtime, validate
 from ..errors import SimulationError
 from ..geometry.colliders import Collider
-from ..neighbors.hash_grid import NEIGHBOUR_CAPACITY
 from ..materials import Material
+from ..neighbors.hash_grid import NEIGHBOUR_CAPACITY
 from ..response.repulsion import RepulsionField
-from ..solvers.impulse import ImpulseSolver
-from . import particles as P
+from ..solvers import ImpulseSolver, Solver, World
+from ..solvers.pairs import PairSettings, ParticleCollisions
+from ..types import STATUS_NAMES
 from .colliders import ColliderEntry, ColliderTable
 from .motion import make_motion
+from .particles import ParticleStore
 
 
 class Scene:
@@ -27,21 +30,23 @@ class Scene:
     solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact);
         `PenaltySolver(...)` resolves them with forces instead.
     domain: optional ((x0, y0, z0), (x1, y1, z1)) box in m. A particle that leaves it is
-        frozen where it left and no longer simulated (see `status()`), with a warning.
+        frozen where it left and no longer simulated (see `particle_status()`), with a warning.
     """
 
     def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float = 1.0 / 600.0, substeps: int = 10,
                  solver=None, domain=None):
         self._runtime = runtime.ensure_init()
-        self.gravity = validate.vector3("gravity", gravity)
+        gravity = validate.vector3("gravity", gravity)
         self.dt = validate.real("dt", dt, low=0.0, low_open=True)
         self.substeps = validate.integer("substeps", substeps, low=1)
         self.solver = solver if solver is not None else ImpulseSolver()
-        if not hasattr(self.solver, "advance"):
+        if not isinstance(self.solver, Solver):
             raise TypeError(f"solver must be a solver such as tc.ImpulseSolver(); got {type(self.solver).__name__}")
-        self.domain = None if domain is None else validate.box("domain", domain)
-        self._particles = P.ParticleStore()
+        domain = None if domain is None else validate.box("domain", domain)
+        self._particles = ParticleStore()
         self._colliders = ColliderTable()
+        # what the solver is handed each call (solvers/base.py)
+        self._world = World(particles=self._particles, colliders=self._colliders, gravity=gravity, domain=domain)
         self._pairs = None  # particle-particle collisions, off until enabled
         self._substep_count = 0
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
@@ -88,45 +93,49 @@ class Scene:
         r = validate.per_item("radius", radius, n)
         return self._particles.add(x, v, m, r)
 
-    def enable_particle_collisions(self, *, material: Material | None = None, **options):
-        """Let particles collide with each other (PHYSICS.md 2, two movable bodies): impulses
-        between pairs found by a spatial hash grid each substep, with restitution and
-        friction from `material`, then the colliders. With a tc.PenaltySolver, pairs are
-        DEM spring-dashpots with the solver's stiffness and damping (reduced mass) and the
-        material's friction. Options: method ("gauss-seidel", the default, or "jacobi": how
-        the passes visit the pairs), iterations (contact passes, default 1 Gauss-Seidel, 4
-        Jacobi), projection_iterations (2 / 4), relaxation (1.0 / 1.5), margin (0.25 of the
-        largest radius), skin (0: extra reach that lets neighbour lists be kept between substeps),
-        reorder (True: the store kept in the grid's cell order; public order never changes),
-        tangential_springs (False; DEM pairs only: friction by a spring per contact, Cundall and
-        Strack, so static friction holds without creeping) and tangential_ratio (2/7: k_t / k_n).
-        With tc.PenaltySolver(rotation=True) pairs also exchange torques: friction acts at the
-        contact point and the material's rolling_friction resists rolling (a rolling spring
-        per contact with tangential_springs). See tai_coll.solvers.pairs. Returns the
-        settings object."""
+    def enable_particle_collisions(self, *, material: Material | None = None, **options) -> ParticleCollisions:
+        """Let particles collide with each other (docs/physics.md 5): impulses between pairs
+        found by a spatial hash grid each substep, with restitution and friction from
+        `material`, then the colliders. With a tc.PenaltySolver, pairs are DEM spring-dashpots
+        with the solver's stiffness and damping (reduced mass) and the material's friction.
+        Options (solvers.pairs.PairSettings): method ("gauss-seidel", the default, or
+        "jacobi": how the passes visit the pairs), iterations (contact passes, default 1
+        Gauss-Seidel, 4 Jacobi), projection_iterations (2 / 4), relaxation (1.0 / 1.5),
+        contact_margin (m; None: a quarter of the largest radius), verlet_skin (m; 0: extra
+        reach that lets neighbour lists be kept between substeps), reorder (True: the store
+        kept in the grid's cell order; public order never changes), tangential_springs (False;
+        DEM pairs only: friction by a spring per contact, Cundall and Strack, so static friction
+        holds without creeping) and tangential_ratio (2/7: k_t / k_n). With
+        tc.PenaltySolver(spin=True) pairs also exchange torques: friction acts at the contact
+        point and the material's rolling_friction resists rolling (a rolling spring per
+        contact with tangential_springs). Returns the scene's ParticleCollisions (settings and
+        counters)."""
         self._check_runtime()
-        if not (hasattr(self.solver, "resolve_candidates") or hasattr(self.solver, "kernel_constants")):
-            raise TypeError(f"particle collisions need tc.ImpulseSolver or tc.PenaltySolver; "
-                            f"got {type(self.solver).__name__}")
-        if options.get("tangential_springs") and not hasattr(self.solver, "kernel_constants"):
+        settings = PairSettings(material=material, **options)
+        if settings.tangential_springs and self.solver.pair_model != "dem":
             raise ValueError("tangential_springs: DEM pairs only (the scene's solver must be a tc.PenaltySolver; "
                              f"got {type(self.solver).__name__}, whose pair impulses hold statically already)")
-        from ..solvers.pairs import ParticleCollisions
-
-        self._pairs = ParticleCollisions(material=material, **options)
+        self._pairs = ParticleCollisions(settings)
         self._warned_dropped = False
+        return self._pairs
+
+    @property
+    def particle_collisions(self) -> ParticleCollisions | None:
+        """The particle collisions enable_particle_collisions turned on (settings and
+        counters), or None."""
         return self._pairs
 
     def particle_overlap(self) -> dict:
         """Overlap between touching particles now, relative to the smaller radius of each
         pair: {"max", "mean" (over overlapping pairs), "pairs"}."""
-        from ..solvers.pairs import ParticleCollisions
+        pairs = self._pairs if self._pairs is not None else ParticleCollisions(PairSettings())
+        return pairs.overlap(self._world)
 
-        pairs = self._pairs if self._pairs is not None else ParticleCollisions()
-        return pairs.overlap(self)
-
-    def _max_radius(self) -> float:
-        return self._particles.max_radius
+    def state_nbytes(self) -> int:
+        """Bytes of every per-particle array the scene holds: the particle store and, with
+        particle collisions, the pair solver's work arrays, grid, lists and springs."""
+        held = self._particles.arrays() + (self._pairs.arrays() if self._pairs is not None else [])
+        return int(sum(a.to_numpy().nbytes for a in held))
 
     # ---------------------------------------------------------------- running
     def step(self, frames: int = 1) -> None:
@@ -135,22 +144,23 @@ class Scene:
         frames = validate.integer("frames", frames, low=0)
         self._check_solver()
         kinematic = self._colliders.has_kinematic
+        world = self._world
         for _ in range(frames):
             if self._pairs is not None and self._particles.count:
                 # Particles interact: every substep is its own sequence of phases.
                 for _ in range(self.substeps):
                     if kinematic:
                         self._colliders.advance(self.time, self.dt)
-                    self._pairs.substep(self, self.dt)
+                    self.solver.pair_substep(world, self._pairs, self.dt)
                     self._substep_count += 1
             elif kinematic:
                 # Colliders move: new poses before every substep.
                 for _ in range(self.substeps):
                     self._colliders.advance(self.time, self.dt)
-                    self.solver.advance(self, self.dt, 1)
+                    self.solver.advance(world, self.dt, 1)
                     self._substep_count += 1
             else:
-                self.solver.advance(self, self.dt, self.substeps)
+                self.solver.advance(world, self.dt, self.substeps)
                 self._substep_count += self.substeps
             self._check_health()
 
@@ -158,12 +168,11 @@ class Scene:
         """Let the solver look at the scene before it steps (the penalty solver compares dt
         with its stiffest contact) whenever particles or colliders were added; each
         warning is given once."""
-        check = getattr(self.solver, "check", None)
         counts = (self.num_particles, len(self._colliders))
-        if check is None or counts == self._solver_checked:
+        if counts == self._solver_checked:
             return
         self._solver_checked = counts
-        for message in check(self):
+        for message in self.solver.check(self._world, self.dt):
             if message not in self._solver_warned:
                 self._solver_warned.add(message)
                 warnings.warn(message, RuntimeWarning, stacklevel=3)
@@ -172,9 +181,8 @@ class Scene:
         fresh = self._particles.collect_stats()
         totals = self._particles.totals
         if fresh["non_finite"]:
-            bad = np.flatnonzero(self.status() == "non_finite")
-            advice = getattr(self.solver, "stability_advice", None)
-            advice = advice(self) if advice is not None else None
+            bad = np.flatnonzero(self.particle_status() == "non_finite")
+            advice = self.solver.stability_advice(self._world)
             raise SimulationError(
                 f"{fresh['non_finite']} particle(s) turned NaN or inf and were frozen at their last finite "
                 f"state (indices {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}) at t = {self.time:.6g} s. "
@@ -192,10 +200,24 @@ class Scene:
                     "to each other, keep them short", RuntimeWarning, stacklevel=3)
         if fresh["left_domain"]:
             warnings.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
-                          f"frozen ({totals['left_domain']} in all); see Scene.status()", RuntimeWarning,
+                          f"frozen ({totals['left_domain']} in all); see Scene.particle_status()", RuntimeWarning,
                           stacklevel=3)
 
     # ---------------------------------------------------------------- reading
+    @property
+    def gravity(self) -> np.ndarray:
+        """Acceleration of every particle, m/s^2."""
+        return self._world.gravity
+
+    @gravity.setter
+    def gravity(self, value):
+        self._world = dataclasses.replace(self._world, gravity=validate.vector3("gravity", value))
+
+    @property
+    def domain(self) -> tuple | None:
+        """The domain box ((lower corner), (upper corner)) in m, or None."""
+        return self._world.domain
+
     @property
     def time(self) -> float:
         """Seconds simulated."""
@@ -223,7 +245,7 @@ class Scene:
 
     def angular_velocities(self) -> np.ndarray:
         """(N, 3) angular velocities in rad/s, in the order the particles were added: zero unless
-        the solver spins particles (tc.PenaltySolver(rotation=True))."""
+        the solver spins particles (tc.PenaltySolver(spin=True))."""
         if self._particles.w is None:
             return np.zeros((self.num_particles, 3), dtype=runtime.float_dtype())
         return self._particles.read("w")
@@ -234,13 +256,21 @@ class Scene:
     def radii(self) -> np.ndarray:
         return self._particles.read("radius")
 
+    def particle_status(self) -> np.ndarray:
+        """Per particle, in the order they were added: "active", "left_domain" (left the
+        domain box, frozen where it left) or "non_finite" (its state turned NaN/inf, frozen at
+        its last finite state)."""
+        return np.array(STATUS_NAMES)[self._particles.read("flags")]
+
     def status(self) -> np.ndarray:
-        """Per particle: "active", "left_domain" or "non_finite"."""
-        names = np.array(["active", "left_domain", "non_finite"])
-        return names[self._particles.read("flags")]
+        """The old name of particle_status() (removed in tai_coll 0.3)."""
+        warnings.warn("Scene.status() is now called particle_status(); the old name will be removed in tai_coll 0.3",
+                      DeprecationWarning, stacklevel=2)
+        return self.particle_status()
 
     def stats(self) -> dict:
-        """Counts since the scene was built: failsafe and repulsion events, particles frozen."""
+        """Counts of events since the scene was built: failsafe and repulsion events, particles
+        frozen (non_finite, left_domain)."""
         return dict(self._particles.totals)
 
     def set_velocities(self, velocities) -> None:
@@ -251,13 +281,13 @@ class Scene:
 
     def set_angular_velocities(self, angular_velocities) -> None:
         """Set every particle's angular velocity (rad/s); the solver must spin particles
-        (tc.PenaltySolver(rotation=True))."""
+        (tc.PenaltySolver(spin=True))."""
         w = validate.points("angular_velocities", angular_velocities)
         if w.shape != (self.num_particles, 3):
             raise ValueError(f"angular_velocities must have shape ({self.num_particles}, 3); got {w.shape}")
-        if not getattr(self.solver, "rotation", False):
+        if not self.solver.spin:
             raise ValueError(f"angular_velocities: the scene's solver does not spin particles ({self.solver!r}); "
-                             "use tc.PenaltySolver(..., rotation=True)")
+                             "use tc.PenaltySolver(..., spin=True)")
         self._particles.enable_spin()
         self._particles.write("w", w)
 

@@ -1,4 +1,4 @@
-"""Contact detection of one particle against the collider table (PHYSICS.md 1 and 3).
+"""Contact detection of one particle against the collider table (docs/physics.md 1 and 3).
 
 Given the particle's start x0 (time t) and candidate x1 (time t + dt), report the collider
 that matters most: the deepest interference at x1, else the earliest trajectory crossing of
@@ -6,17 +6,17 @@ x0 -> x1 (continuous detection, so a fast particle cannot tunnel through a thin 
 Interference is tested against each collider's pose at t + dt. Colliders the particle was
 already inside at time t (beyond the slop) are skipped: the last-resort repulsion owns them.
 
-Each function evaluates the SDF at one call site inside a loop: Taichi inlines every
-@ti.func call, and each call of `world_sdf` carries all five shapes into the kernel.
+The collider table `c` is its argument pack (types.ColliderArgs) and `groups` the
+compile-time mask of the collider kinds compiled in (geometry/dispatch.py). Each function
+evaluates the SDF at one call site inside a loop: Taichi inlines every @ti.func call, and
+each call of `world_sdf` carries every compiled shape into the kernel.
 """
 
 import taichi as ti
 
 from ..geometry import kinds
-from ..geometry.crossing import world_crossing
-from ..geometry.sdf import world_sdf
-
-vec3 = ti.math.vec3
+from ..geometry.dispatch import world_crossing, world_sdf
+from ..types import vec3
 
 # Relative size of a normal velocity component that counts as round-off, not approach.
 APPROACH_EPS = 1e-6
@@ -38,14 +38,14 @@ def is_still(c: ti.template(), ci) -> bool:
 
 
 @ti.func
-def collider_sdf(c: ti.template(), ci, x: vec3, end_pose: bool):
+def collider_sdf(c: ti.template(), groups: ti.template(), ci, x: vec3, end_pose: bool):
     """phi and normal at x with the collider at the substep's end pose (or start pose)."""
     center = c.center0[ci]
     rotation = c.rotation0[ci]
     if end_pose:
         center = c.center1[ci]
         rotation = c.rotation1[ci]
-    return world_sdf(c, ci, c.kind[ci], c.params[ci], center, rotation, x)
+    return world_sdf(c, groups, ci, c.kind[ci], c.params[ci], center, rotation, x)
 
 
 @ti.func
@@ -78,7 +78,7 @@ def carried(c: ti.template(), ci, x: vec3, elapsed) -> vec3:
 
 
 @ti.func
-def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: vec3, r, slop):
+def detect(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3, v_alt: vec3, r, slop):
     """Returns (collider index or -1, outward normal, surface velocity at the contact) for
     velocity v, the same for a second velocity v_alt from the same geometric sweep (the
     elastic pass tests v(t), the contact pass after it the candidate velocity: one sweep
@@ -89,7 +89,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
       within the slop band keeps its depth and is not processed again;
     - or x1 is clear but the segment x0 -> x1 crosses the shape (continuous detection).
     Its contact is where the segment first touches: x0 itself for a particle already in the
-    band (normal at x0), else the crossing point (PHYSICS.md 1). That normal, not the one at
+    band (normal at x0), else the crossing point (docs/physics.md 1). That normal, not the one at
     the deepest point x1, is what keeps a sliding particle on a curved surface and gives the
     right face at a box edge. Non-convex colliders (meshes, terrain) add one case: when x1
     sinks deeper but the velocity no longer approaches that contact (it slid along one face
@@ -111,7 +111,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
     alt = -1
     alt_n = vec3(0.0, 1.0, 0.0)
     alt_vs = vec3(0.0, 0.0, 0.0)
-    for ci in range(n_colliders):
+    for ci in range(c.count):
         reach = (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] - r
         if reach >= length:
             clearance, nearest, second = keep_two_smallest(clearance, nearest, second, reach, ci)
@@ -123,7 +123,7 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
         n1 = vec3(0.0, 1.0, 0.0)
         candidate = False
         for k in range(2):
-            phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
+            phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0)
             if k == 0:
                 gap1, n1 = phi - r, n
                 clearance, nearest, second = keep_two_smallest(clearance, nearest, second, gap1, ci)
@@ -145,8 +145,8 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
             if gap0 >= 0.0:
                 # Sweep the path relative to the collider, against its end pose.
                 start = carried(c, ci, x0, 0.0)
-                hit, t_hit, n_hit = world_crossing(c, ci, c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci],
-                                                   start, x1, r)
+                hit, t_hit, n_hit = world_crossing(c, groups, ci, c.kind[ci], c.params[ci], c.center1[ci],
+                                                   c.rotation1[ci], start, x1, r)
                 candidate = hit
                 t, n = t_hit, n_hit
             if candidate:
@@ -168,16 +168,16 @@ def detect(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, v_alt: ve
 
 
 @ti.func
-def keep_out(c: ti.template(), n_colliders, x0: vec3, x1: vec3, r):
+def keep_out(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, r):
     """Move x1 out along each collider's normal to no deeper than x0 was (or to the surface):
     for positions that another phase moved (particle-particle projection), where no velocity
     approaches the collider and the contact passes would leave the penetration alone."""
-    for ci in range(n_colliders):
+    for ci in range(c.count):
         if (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] < r:
             gap1 = 0.0
             n1 = vec3(0.0, 1.0, 0.0)
             for k in range(2):
-                phi, n = collider_sdf(c, ci, x1 if k == 0 else x0, k == 0)
+                phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0)
                 if k == 0:
                     gap1, n1 = phi - r, n
                     if gap1 >= 0.0:
@@ -190,7 +190,7 @@ def keep_out(c: ti.template(), n_colliders, x0: vec3, x1: vec3, r):
 
 
 @ti.func
-def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
+def start_penetration(c: ti.template(), groups: ti.template(), ci, x0: vec3, r, slop):
     """If x0 was inside collider ci at time t (beyond the slop), return (True, depth, normal,
     contact point) measured against the end pose; else (False, ...)."""
     inside = False
@@ -198,7 +198,7 @@ def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
     n = vec3(0.0, 1.0, 0.0)
     if (x0 - c.center0[ci]).norm() - c.params[ci][BOUND_SLOT] < r:  # else outside the bounding sphere
         for k in range(2):
-            phi, n = collider_sdf(c, ci, x0, k == 1)
+            phi, n = collider_sdf(c, groups, ci, x0, k == 1)
             if k == 0:
                 inside = phi < r - slop
                 if not inside:
@@ -207,7 +207,7 @@ def start_penetration(c: ti.template(), ci, x0: vec3, r, slop):
 
 
 @ti.func
-def earliest_approach(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3, elapsed, r, slop):
+def earliest_approach(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3, elapsed, r, slop):
     """For the exact-time scheme: the first collider that the path x0 -> x1 (starting at
     `elapsed`, a fraction of the substep) touches while approaching it, swept relative to
     each collider. Returns (collider or -1, fraction t of the path, normal, surface velocity)."""
@@ -215,12 +215,12 @@ def earliest_approach(c: ti.template(), n_colliders, x0: vec3, x1: vec3, v: vec3
     first_t = 2.0
     first_n = vec3(0.0, 1.0, 0.0)
     first_vs = vec3(0.0, 0.0, 0.0)
-    for ci in range(n_colliders):
+    for ci in range(c.count):
         start = carried(c, ci, x0, elapsed)
-        phi, n0 = collider_sdf(c, ci, start, True)
+        phi, n0 = collider_sdf(c, groups, ci, start, True)
         if phi - r < (x1 - start).norm() + slop and phi >= r - slop:
-            hit, t, n = world_crossing(c, ci, c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], start, x1,
-                                       r)
+            hit, t, n = world_crossing(c, groups, ci, c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], start,
+                                       x1, r)
             if hit and t < first_t:
                 vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
                 if approaching(v, vs, n):

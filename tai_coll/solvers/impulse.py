@@ -1,5 +1,5 @@
-"""Impulse-based contact resolution: PHYSICS.md 3, the ways of putting collisions into time
-integration. Each particle is resolved independently (in parallel) against the colliders.
+"""Impulse-based contact resolution: docs/physics.md 3, the ways of putting collisions into
+time integration. Each particle is resolved independently (in parallel) against the colliders.
 
 One substep of one particle reads as: integrate without collisions to a candidate (x1, v1);
 accept penetrations that were already there at time t and push out with the last-resort
@@ -15,6 +15,10 @@ repulsion; then resolve the candidate with the chosen scheme:
 
 Loops are capped; a particle still interfering after the cap gets the failsafe: it stops
 relative to the collider (v = surface velocity, x1 = x + dt v).
+
+Kernels take the particle store and the collider table as argument packs (`p`, `c`:
+types.ParticleArgs, types.ColliderArgs) and `groups`, the compile-time mask of the collider
+kinds compiled in; the solver launches them with every argument named (`_law`).
 """
 
 
@@ -22,20 +26,18 @@ import numpy as np
 import taichi as ti
 
 from .. import validate
-from ..response.collide import WET_LAWS
-from ..response.laws import respond
+from ..geometry import kinds
+from ..response.laws import WET_LAWS, respond
 from ..response.penalty import FIELD_NONE, apply_repulsion
 from ..response.repulsion import RepulsionField, pack
-from ..scene import particles as P
-from ..geometry import kinds
+from ..types import ACTIVE, ARRAY, NON_FINITE, STAT_FAILSAFE, STAT_REPULSION, ColliderArgs, ParticleArgs, vec3
+from .base import Solver
 from .detection import detect, earliest_approach, is_still, keep_out, start_penetration, surface_velocity
 from .integrate import (flag, flight_path_bound, flight_stays_inside, free_flight, state_status, store,
                         symplectic_euler)
-from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
 
-vec3 = ti.math.vec3
-# The last resort's settings as one kernel argument `repulsion`: the push fraction, then a
-# repulsion field's kind (0: none, push instead), profile, strength, decay and range.
+# The last resort's settings as one kernel argument: the push fraction, then a repulsion
+# field's kind (0: none, push instead), profile, strength, decay and range.
 last_resort6 = ti.types.vector(6, float)
 
 SIMPLE = 0
@@ -47,41 +49,43 @@ SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT,
 
 @ti.func
 def apply_law(c: ti.template(), ci, v: vec3, n: vec3, vs: vec3, restitution, wet_law: ti.template()):
-    """PHYSICS.md 2 on the velocity relative to the collider's surface, with its material."""
+    """docs/physics.md 2 on the velocity relative to the collider's surface, with its material."""
     m = c.material[ci]
     v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
     return vs + v_rel
 
 
 @ti.func
-def repel_start_penetrations(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, x1: vec3,
-                             v1: vec3, r, m, slop, dt, repulsion: last_resort6, speed_limit,
+def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3,
+                             v1: vec3, r, m, slop, dt, last_resort: last_resort6, max_push_speed,
                              wet_law: ti.template()):
-    """Last resort (PHYSICS.md 3, seed 001): a particle already inside a collider at time t
-    keeps its penetration for this substep and is pushed out along the normal by
-    repulsion[0] x depth (at most speed_limit x dt). The push moves the position only; the
-    velocity gets the inelastic law (e = 0, friction as usual), so a particle freed from a
-    collider does not fly off with the push as velocity. With a repulsion field in
-    repulsion[1:] (seed 002), the field acts on the velocity, at gap -depth, instead."""
+    """Last resort (docs/physics.md 3, seed 001): a particle already inside a collider at
+    time t keeps its penetration for this substep and is pushed out along the normal by
+    last_resort[0] (the push fraction) x depth, at most max_push_speed x dt. The push moves
+    the position only; the velocity gets the inelastic law (e = 0, friction as usual), so a
+    particle freed from a collider does not fly off with the push as velocity. With a
+    repulsion field in last_resort[1:] (seed 002), the field acts on the velocity, at gap
+    -depth, instead."""
     push = vec3(0.0, 0.0, 0.0)
-    for ci in range(n_colliders):
-        inside, depth, n, point = start_penetration(c, ci, x0, r, slop)
+    for ci in range(c.count):
+        inside, depth, n, point = start_penetration(c, groups, ci, x0, r, slop)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
             v1 = apply_law(c, ci, v1, n, vs, 0.0, wet_law)
-            field_kind = ti.cast(repulsion[1], ti.i32)
+            field_kind = ti.cast(last_resort[1], ti.i32)
             if field_kind == FIELD_NONE:
-                push += ti.min(repulsion[0] * depth, speed_limit * dt) * n
+                push += ti.min(last_resort[0] * depth, max_push_speed * dt) * n
             else:
-                v1 = vs + apply_repulsion(v1 - vs, n, -depth, m, dt, field_kind, ti.cast(repulsion[2], ti.i32),
-                                          repulsion[3], repulsion[4], repulsion[5])
+                v1 = vs + apply_repulsion(v1 - vs, n, -depth, m, dt, field_kind, ti.cast(last_resort[2], ti.i32),
+                                          last_resort[3], last_resort[4], last_resort[5])
             x1 = x0 + dt * v1 + push
-            ti.atomic_add(p.stats[P.STAT_REPULSION], 1)
+            ti.atomic_add(p.stats[STAT_REPULSION], 1)
     return x1, v1, push
 
 
 @ti.func
-def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, push: vec3, v0: vec3, x1: vec3,
+def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0: vec3, push: vec3, v0: vec3,
+                   x1: vec3,
                    v1: vec3, r, slop, dt, elastic_passes, contact_passes,
                    first_contact_elastic: ti.template(), failsafe: ti.template(), wet_law: ti.template()):
     """The simple, micro-collision and elastic-then-contact schemes as one loop.
@@ -113,8 +117,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, pu
         ci_alt = -1
         n_alt = n
         vs_alt = vs
-        ci, n, vs, ci_alt, n_alt, vs_alt, near, nearest, second = detect(c, n_colliders, x0, x1, v_test, v1, r,
-                                                                         slop)
+        ci, n, vs, ci_alt, n_alt, vs_alt, near, nearest, second = detect(c, groups, x0, x1, v_test, v1, r, slop)
         if ci < 0 and elastic_left > 0 and ci_alt >= 0:
             # Nothing to bounce off, but the candidate velocity meets a contact: go straight to
             # the contact passes with what this sweep found.
@@ -154,15 +157,15 @@ def resolve_passes(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, pu
                 break
     if ti.static(failsafe):
         if not resolved:
-            # Failsafe (PHYSICS.md 3): stop relative to the collider.
+            # Failsafe (docs/physics.md 3): stop relative to the collider.
             v1 = last_vs
             x1 = x0 + push + dt * last_vs
-            ti.atomic_add(p.stats[P.STAT_FAILSAFE], 1)
+            ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
     return x1, v1, clearance
 
 
 @ti.func
-def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3, v1: vec3, r, slop,
+def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template(), x0: vec3, v1: vec3, r, slop,
                        dt, max_iterations, rest_speed, wet_law: ti.template()):
     """Backing up time: move along the straight path to the first contact, apply the law
     there, go on for the remaining time. Approach speeds below rest_speed get e = 0, so a
@@ -174,7 +177,7 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3
     last_vs = vec3(0.0, 0.0, 0.0)
     for _ in range(max_iterations):
         x_end = x + remaining * v
-        ci, t, n, vs = earliest_approach(c, n_colliders, x, x_end, v, 1.0 - remaining / dt, r, slop)
+        ci, t, n, vs = earliest_approach(c, groups, x, x_end, v, 1.0 - remaining / dt, r, slop)
         if ci < 0:
             x = x_end
             done = True
@@ -188,7 +191,7 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), n_colliders, x0: vec3
         last_vs = vs
     if not done:
         x = x + remaining * last_vs
-        ti.atomic_add(p.stats[P.STAT_FAILSAFE], 1)
+        ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
     return x, v
 
 
@@ -207,42 +210,37 @@ def try_free_flight(x0: vec3, v0: vec3, clearance, gravity: vec3, dt, k, use_dom
             inside = True
             if ti.static(use_domain):
                 inside = flight_stays_inside(x0, v0, gravity, dt, k, domain_lo, domain_hi)
-            if inside and state_status(xk, vk, False, domain_lo, domain_hi) == P.ACTIVE:
+            if inside and state_status(xk, vk, False, domain_lo, domain_hi) == ACTIVE:
                 done = True
                 left = clearance - path
     return done, xk, vk, left
 
 
 @ti.kernel
-def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(), flags: scalars(ti.i32),
-                    stats: scalars(ti.i32),
-                    kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
-                    rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
-                    angular_velocity: vectors(), ishape: vectors(8), fshape: vectors(8), fpool: scalars(),
-                    ipool: scalars(ti.i32), groups: ti.template(),
-                    clearances: scalars(), reuse_clearance: ti.i32,
-                    n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
-                    scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
-                    elastic_iterations: ti.i32, repulsion: last_resort6, repulsion_speed_limit: float,
-                    slop_fraction: float, rest_speed: float,
+def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), clearances: ARRAY,
+                    reuse_clearance: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float, scheme: ti.template(),
+                    wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
+                    last_resort: last_resort6, max_push_speed: float, slop_fraction: float, rest_speed: float,
                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
-    # Particles are independent of each other here, so with colliders that hold still during
-    # the call, one launch runs several substeps and keeps each particle in registers,
-    # including its clearance: a lower bound on how far it can travel before it could touch
-    # a collider (phi is 1-Lipschitz). While the clearance exceeds the path of the remaining
-    # substeps, nothing can be touched and those substeps are plain integration, done in
-    # closed form at once (free_flight). The clearance is kept between launches
-    # (`clearances`) and reused when the host says nothing moved in between: neither the
-    # colliders nor the particles outside this kernel (reuse_clearance).
-    # A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
-    # still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the
-    # same in every later substep of the launch, so the particle is done: an exact shortcut,
-    # not an approximation (no sleeping thresholds). The state stays in registers between
-    # substeps and is written once.
-    for i in range(n_particles):
-        if flags[i] == P.ACTIVE:
-            x0 = x[i]
-            v0 = v[i]
+    """n_substeps substeps of every active particle against colliders that hold still for the
+    call; `clearances` (one per particle, in-out) are kept between launches.
+
+    Particles are independent of each other here, so one launch runs several substeps and
+    keeps each particle in registers, including its clearance: a lower bound on how far it
+    can travel before it could touch a collider (phi is 1-Lipschitz). While the clearance
+    exceeds the path of the remaining substeps, nothing can be touched and those substeps are
+    plain integration, done in closed form at once (free_flight). The clearance is reused
+    from the last launch when the host says nothing moved in between: neither the colliders
+    nor the particles outside this kernel (reuse_clearance).
+    A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
+    still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the same
+    in every later substep of the launch, so the particle is done: an exact shortcut, not an
+    approximation (no sleeping thresholds). The state stays in registers between substeps and
+    is written once."""
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE:
+            x0 = particles.x[i]
+            v0 = particles.v[i]
             clearance = -1.0
             if reuse_clearance:
                 clearance = clearances[i]
@@ -250,11 +248,11 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
             flown, xk, vk, left = try_free_flight(x0, v0, clearance, gravity, dt, n_substeps, use_domain,
                                                   domain_lo, domain_hi)
             if flown:
-                x[i] = xk
-                v[i] = vk
+                particles.x[i] = xk
+                particles.v[i] = vk
                 clearances[i] = left
             else:
-                status = P.ACTIVE
+                status = ACTIVE
                 s = 0
                 while s < n_substeps:
                     if s > 0:  # the clearance may have been renewed by a query
@@ -270,32 +268,29 @@ def impulse_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars
                     if clearance > step:
                         clearance -= step
                     else:
-                        x1, v1, clearance = resolve_particle(
-                            ParticleArrays(x, v, mass, radius, flags, stats),
-                            ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
-                                           angular_velocity, ishape, fshape, fpool, ipool, groups),
-                            i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations,
-                            elastic_iterations, repulsion, repulsion_speed_limit, slop_fraction, rest_speed)
+                        x1, v1, clearance = resolve_particle(particles, colliders, groups, i, x0, v0, x1, v1, dt,
+                                                             scheme, wet_law, max_iterations, elastic_iterations,
+                                                             last_resort, max_push_speed, slop_fraction, rest_speed)
                         unchanged = all(x1 == x0) and all(v1 == v0)
                     status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
-                    if status == P.NON_FINITE:
+                    if status == NON_FINITE:
                         break  # frozen at its last finite state
                     x0 = x1
                     v0 = v1
                     s += 1
-                    if status != P.ACTIVE or unchanged:
+                    if status != ACTIVE or unchanged:
                         break
-                x[i] = x0
-                v[i] = v0
+                particles.x[i] = x0
+                particles.v[i] = v0
                 clearances[i] = clearance
-                if status != P.ACTIVE:
-                    flag(ParticleArrays(x, v, mass, radius, flags, stats), i, status)
+                if status != ACTIVE:
+                    flag(particles, i, status)
 
 
 @ti.func
-def resolve_particle(p: ti.template(), c: ti.template(), i, n_colliders, x0: vec3, v0: vec3, x1: vec3, v1: vec3,
-                     dt, scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
-                     repulsion, repulsion_speed_limit, slop_fraction, rest_speed):
+def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), i, x0: vec3, v0: vec3, x1: vec3,
+                     v1: vec3, dt, scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
+                     last_resort, max_push_speed, slop_fraction, rest_speed):
     """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
     time t against the colliders with the chosen scheme. Returns (x1, v1, clearance)."""
     r = p.radius[i]
@@ -303,59 +298,49 @@ def resolve_particle(p: ti.template(), c: ti.template(), i, n_colliders, x0: vec
     clearance = -1.0
     push = vec3(0.0, 0.0, 0.0)
     if ti.static(scheme != SIMPLE):
-        x1, v1, push = repel_start_penetrations(p, c, n_colliders, x0, x1, v1, r, p.mass[i], slop, dt,
-                                                repulsion, repulsion_speed_limit, wet_law)
+        x1, v1, push = repel_start_penetrations(p, c, groups, x0, x1, v1, r, p.mass[i], slop, dt, last_resort,
+                                                max_push_speed, wet_law)
     if ti.static(scheme == SIMPLE):
-        x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0, 1,
-                                           True, False, wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, x0, push, v0, x1, v1, r, slop, dt, 0, 1, True, False,
+                                           wet_law)
     elif ti.static(scheme == MICRO):
-        x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt, 0,
-                                           max_iterations, True, True, wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, x0, push, v0, x1, v1, r, slop, dt, 0, max_iterations, True,
+                                           True, wet_law)
     elif ti.static(scheme == ELASTIC_CONTACT):
-        x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, push, v0, x1, v1, r, slop, dt,
-                                           elastic_iterations, max_iterations, False, True, wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, x0, push, v0, x1, v1, r, slop, dt, elastic_iterations,
+                                           max_iterations, False, True, wet_law)
     else:
-        x1, v1 = resolve_exact_time(p, c, n_colliders, x0 + push, v1, r, slop, dt, max_iterations,
-                                    rest_speed, wet_law)
+        x1, v1 = resolve_exact_time(p, c, groups, x0 + push, v1, r, slop, dt, max_iterations, rest_speed, wet_law)
     return x1, v1, clearance
 
 
 @ti.kernel
-def impulse_resolve_candidates(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(),
-                               flags: scalars(ti.i32), stats: scalars(ti.i32),
-                               kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
-                               rotation0: matrices(), center1: vectors(), rotation1: matrices(),
-                               velocity: vectors(), angular_velocity: vectors(), ishape: vectors(8),
-                               fshape: vectors(8), fpool: scalars(), ipool: scalars(ti.i32), groups: ti.template(),
-                               clearances: scalars(), reuse_clearance: ti.i32,
-                               candidate_x: vectors(), candidate_v: vectors(),
-                               n_particles: ti.i32, n_colliders: ti.i32, dt: float,
-                               scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
-                               elastic_iterations: ti.i32, repulsion: last_resort6, repulsion_speed_limit: float,
-                               slop_fraction: float, rest_speed: float,
-                               use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
-                               contact_only: ti.template(), store_state: ti.template()):
+def impulse_resolve_candidates(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(),
+                               clearances: ARRAY, reuse_clearance: ti.i32, dt: float, scheme: ti.template(),
+                               wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
+                               last_resort: last_resort6, max_push_speed: float, slop_fraction: float,
+                               rest_speed: float, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
+                               contact_only: ti.template(), store_state: ti.template(),
+                               # in-out
+                               candidate_x: ARRAY, candidate_v: ARRAY):
     """Resolve candidates that another phase (particle-particle contacts) produced: with the
     chosen scheme, or with contact passes only (e = 0) when contact_only; then either store
     them as the new state, or write them back as candidates for the next phase. A particle
     whose kept clearance (see impulse_substep) exceeds the way from x to its candidate
     cannot touch a collider: it is left as it is, without a query."""
-    for i in range(n_particles):
-        resolve_candidate(ParticleArrays(x, v, mass, radius, flags, stats),
-                          ColliderArrays(kind, params, material, center0, rotation0, center1, rotation1, velocity,
-                                         angular_velocity, ishape, fshape, fpool, ipool, groups),
-                          i, n_colliders, clearances, reuse_clearance, candidate_x, candidate_v, dt, scheme,
-                          wet_law, max_iterations, elastic_iterations, repulsion, repulsion_speed_limit,
+    for i in range(particles.count):
+        resolve_candidate(particles, colliders, groups, i, clearances, reuse_clearance, candidate_x, candidate_v, dt,
+                          scheme, wet_law, max_iterations, elastic_iterations, last_resort, max_push_speed,
                           slop_fraction, rest_speed, use_domain, domain_lo, domain_hi, contact_only, store_state)
 
 
 @ti.func
-def resolve_candidate(p: ti.template(), c: ti.template(), i, n_colliders, clearances: ti.template(), reuse_clearance,
-                      candidate_x: ti.template(), candidate_v: ti.template(), dt, scheme: ti.template(),
-                      wet_law: ti.template(), max_iterations, elastic_iterations, repulsion, repulsion_speed_limit,
-                      slop_fraction, rest_speed, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
-                      contact_only: ti.template(), store_state: ti.template()):
-    if p.flags[i] == P.ACTIVE:
+def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(), i, clearances: ti.template(),
+                      reuse_clearance, candidate_x: ti.template(), candidate_v: ti.template(), dt,
+                      scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations, last_resort,
+                      max_push_speed, slop_fraction, rest_speed, use_domain: ti.template(), domain_lo: vec3,
+                      domain_hi: vec3, contact_only: ti.template(), store_state: ti.template()):
+    if p.flags[i] == ACTIVE:
         x0 = p.x[i]
         v0 = p.v[i]
         x1 = candidate_x[i]
@@ -369,16 +354,16 @@ def resolve_candidate(p: ti.template(), c: ti.template(), i, n_colliders, cleara
         else:
             if ti.static(contact_only):
                 r = p.radius[i]
-                x1, v1, clearance = resolve_passes(p, c, n_colliders, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
+                x1, v1, clearance = resolve_passes(p, c, groups, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
                                                    slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
-                x_kept = keep_out(c, n_colliders, x0, x1, r)
+                x_kept = keep_out(c, groups, x0, x1, r)
                 if any(x_kept != x1):
                     clearance = -1.0
                 x1 = x_kept
             else:
-                x1, v1, clearance = resolve_particle(p, c, i, n_colliders, x0, v0, x1, v1, dt, scheme, wet_law,
-                                                     max_iterations, elastic_iterations, repulsion,
-                                                     repulsion_speed_limit, slop_fraction, rest_speed)
+                x1, v1, clearance = resolve_particle(p, c, groups, i, x0, v0, x1, v1, dt, scheme, wet_law,
+                                                     max_iterations, elastic_iterations, last_resort, max_push_speed,
+                                                     slop_fraction, rest_speed)
         if ti.static(store_state):
             store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
             clearances[i] = clearance
@@ -387,8 +372,8 @@ def resolve_candidate(p: ti.template(), c: ti.template(), i, n_colliders, cleara
             candidate_v[i] = v1
 
 
-class ImpulseSolver:
-    """Resolve particle-collider contacts with impulses (PHYSICS.md 2 and 3).
+class ImpulseSolver(Solver):
+    """Resolve particle-collider contacts with impulses (docs/physics.md 2 and 3).
 
     scheme: "elastic_contact" (default, Implementation 3), "micro" (Implementation 2),
         "simple" (Implementation 1, kept for comparison: it fails for resting contact) or
@@ -397,10 +382,11 @@ class ImpulseSolver:
         before the failsafe. More passes resolve corners better and cost time in contact.
     elastic_iterations: how many times the elastic pass of Implementation 3 may repeat
         while the candidate still interferes.
-    repulsion: the last resort for a particle already inside a collider at the start of a
-        substep: this fraction of the depth is recovered per substep, by moving the position
-        along the normal (the velocity gets the inelastic law), at most
-        repulsion_speed_limit * dt per substep (m/s).
+    push_fraction: the last resort for a particle already inside a collider at the start of
+        a substep: this fraction of the depth is recovered per substep, by moving the position
+        along the normal (the velocity gets the inelastic law), at most max_push_speed * dt
+        per substep.
+    max_push_speed: m/s, the cap on that push.
     last_resort: None (the push above) or a `tc.RepulsionField` acting instead on the
         velocity of a particle found inside, at gap -depth (seed 002). A velocity field of
         strength s lets it leave at s m/s or more, a force field accelerates it out.
@@ -411,10 +397,15 @@ class ImpulseSolver:
     rest_speed: exact_time only: approach speeds (m/s) below this get e = 0. None: twice the
         speed gravity adds in one substep.
     wet_law: "linear" max(0, 1 - D dv_N) or "exponential" exp(-D dv_N) (seed 001).
+    (`repulsion` and `repulsion_speed_limit` are the old names of push_fraction and
+    max_push_speed.)
     """
 
+    pair_model = "impulses"
+
+    @validate.renamed_arguments(repulsion="push_fraction", repulsion_speed_limit="max_push_speed")
     def __init__(self, *, scheme: str = "elastic_contact", max_iterations: int = 8,
-                 elastic_iterations: int = 1, repulsion: float = 0.1, repulsion_speed_limit: float = 1.0,
+                 elastic_iterations: int = 1, push_fraction: float = 0.1, max_push_speed: float = 1.0,
                  slop: float = 1e-3, rest_speed: float | None = None, wet_law: str = "linear",
                  last_resort: RepulsionField | None = None):
         if scheme not in SCHEMES:
@@ -424,9 +415,8 @@ class ImpulseSolver:
         self.scheme = scheme
         self.max_iterations = validate.integer("max_iterations", max_iterations, low=1)
         self.elastic_iterations = validate.integer("elastic_iterations", elastic_iterations, low=0)
-        self.repulsion = validate.real("repulsion", repulsion, low=0.0, high=1.0, low_open=True)
-        self.repulsion_speed_limit = validate.real("repulsion_speed_limit", repulsion_speed_limit,
-                                                   low=0.0, low_open=True)
+        self.push_fraction = validate.real("push_fraction", push_fraction, low=0.0, high=1.0, low_open=True)
+        self.max_push_speed = validate.real("max_push_speed", max_push_speed, low=0.0, low_open=True)
         self.slop = validate.real("slop", slop, low=0.0, high=0.5)
         self.rest_speed = validate.real("rest_speed", rest_speed, low=0.0, allow_none=True)
         self.wet_law = wet_law
@@ -437,43 +427,51 @@ class ImpulseSolver:
     def __repr__(self):
         return f"ImpulseSolver(scheme={self.scheme!r}, max_iterations={self.max_iterations})"
 
-    def check(self, scene) -> list[str]:
+    def check(self, world, dt: float) -> list[str]:
         """Warnings for the scene as it stands (called by Scene before stepping)."""
-        fielded = [k for k, e in enumerate(scene.colliders) if e.repulsion is not None]
+        fielded = [k for k, e in enumerate(world.colliders.entries) if e.repulsion is not None]
         if not fielded:
             return []
         return [f"ImpulseSolver ignores the repulsion fields of colliders {fielded}; they act with "
                 "tc.PenaltySolver. ImpulseSolver(last_resort=tc.RepulsionField(...)) uses one as its last resort."]
 
-    def _options(self, scene, dt):
-        gravity = scene.gravity
-        rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(gravity)) * dt
-        lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
-        return ((SCHEMES[self.scheme], WET_LAWS[self.wet_law], self.max_iterations, self.elastic_iterations,
-                 last_resort6(self.repulsion, *pack(self.last_resort)), self.repulsion_speed_limit, self.slop,
-                 rest_speed),
-                (scene.domain is not None, vec3(*lo), vec3(*hi)))
+    def _law(self, world, dt: float) -> dict:
+        """The kernels' scheme, law and domain arguments, by name."""
+        rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(world.gravity)) * dt
+        use_domain, lo, hi = world.domain_bounds()
+        return dict(scheme=SCHEMES[self.scheme], wet_law=WET_LAWS[self.wet_law], max_iterations=self.max_iterations,
+                    elastic_iterations=self.elastic_iterations,
+                    last_resort=last_resort6(self.push_fraction, *pack(self.last_resort)),
+                    max_push_speed=self.max_push_speed, slop_fraction=self.slop, rest_speed=rest_speed,
+                    use_domain=use_domain, domain_lo=vec3(*lo), domain_hi=vec3(*hi))
 
-    def resolve_candidates(self, scene, dt: float, candidate_x, candidate_v, *, contact_only=False,
+    def resolve_candidates(self, world, dt: float, candidate_x, candidate_v, *, contact_only=False,
                            store_state=True):
-        """Resolve candidate positions and velocities (ndarrays) from another phase against
-        the colliders: with the scheme, or contact passes only; store the result as the
+        """Resolve candidate positions and velocities (arrays) from another phase against the
+        colliders: with the scheme, or contact passes only; store the result as the
         particles' new state, or write it back to the candidate arrays."""
-        options, domain = self._options(scene, dt)
-        store, table = scene._particles, scene._colliders
+        store, table = world.particles, world.colliders
         reuse = store.clearances_hold(table)
-        impulse_resolve_candidates(*store.kernel_args(moves=store_state), *table.kernel_args(), table.groups,
-                                   store.clearance, int(reuse), candidate_x, candidate_v, store.count, len(table),
-                                   dt, *options, *domain, contact_only, store_state)
+        if store_state:
+            store.mark_moved()
+        impulse_resolve_candidates(particles=store.args, colliders=table.args, groups=table.groups,
+                                   clearances=store.clearance, reuse_clearance=int(reuse), dt=dt,
+                                   **self._law(world, dt), contact_only=contact_only, store_state=store_state,
+                                   candidate_x=candidate_x, candidate_v=candidate_v)
         if store_state:
             store.clearances_written(table)
 
-    def advance(self, scene, dt: float, substeps: int = 1):
-        """Advance every active particle of `scene` by `substeps` substeps of dt against its
-        colliders, which must keep their current poses for the whole call."""
-        options, domain = self._options(scene, dt)
-        store, table = scene._particles, scene._colliders
-        reuse = store.clearances_hold(table)  # before kernel_args(), which counts this launch as a move
-        impulse_substep(*store.kernel_args(), *table.kernel_args(), table.groups, store.clearance, int(reuse),
-                        store.count, len(table), substeps, vec3(*scene.gravity), dt, *options, *domain)
+    def advance(self, world, dt: float, substeps: int = 1):
+        """Advance every active particle by `substeps` substeps of dt against the colliders,
+        which must keep their current poses for the whole call."""
+        store, table = world.particles, world.colliders
+        reuse = store.clearances_hold(table)
+        store.mark_moved()
+        impulse_substep(particles=store.args, colliders=table.args, groups=table.groups, clearances=store.clearance,
+                        reuse_clearance=int(reuse), n_substeps=substeps, gravity=vec3(*world.gravity), dt=dt,
+                        **self._law(world, dt))
         store.clearances_written(table)
+
+    def pair_substep(self, world, pairs, dt: float):
+        """One substep with particle-particle impulses, the colliders resolved by this solver."""
+        pairs.impulse_substep(world, self, dt)

@@ -1,4 +1,4 @@
-"""Penalty-based contact resolution: PHYSICS.md 4, seed 002. Forces instead of impulses.
+"""Penalty-based contact resolution: docs/physics.md 4, seed 002. Forces instead of impulses.
 
 One substep of one particle reads as: gather its state; sum the forces of every collider
 within reach at the start of the substep (a zero-length spring-damper at the point of entry
@@ -14,24 +14,33 @@ Like the impulse solver, particles are independent, one parallel loop runs over 
 with colliders that hold still one launch runs several substeps and carries each particle's
 clearance: while it is farther from every collider (and its field) than it moves, the
 substep is free flight.
+
+The substep kernel comes in variants (`penalty_kernel`): for particles that spin or not, and
+with per-particle loads from particle pairs (DEM forces, torques) or not. Each takes only the
+arrays it reads; Taichi kernels have fixed signatures, so a variant compiled without a
+feature gets the Unused pack in that feature's place.
 """
 
+import functools
 import weakref
 
 import numpy as np
 import taichi as ti
 
 from .. import params, runtime, validate
+from ..geometry.colliders import Collider
 from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SPHERE_INERTIA, SYMPLECTIC_EULER, apply_repulsion,
                                 friction_force, spin_friction, spring_damper, spring_damper_implicit)
-from ..geometry.colliders import Collider
 from ..response.repulsion import pack
-from ..scene import particles as P
-from ..scene.arrays import ColliderArrays, ParticleArrays, matrices, scalars, vectors
+from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, SpinArgs, Unused, unused, vec3
+from .base import Solver
 from .detection import BOUND_SLOT, INFINITY, carried, collider_sdf, surface_velocity
 from .integrate import store
 
-vec3 = ti.math.vec3
+#: Loads on particles from outside the solver (DEM pairs): forces (N), and for spinning
+#: particles torques (N m), held for one substep.
+Forces = ti.types.argpack(force=ARRAY)
+ForcesAndTorques = ti.types.argpack(force=ARRAY, torque=ARRAY)
 
 INTEGRATORS = {"symplectic_euler": SYMPLECTIC_EULER, "backward_euler": BACKWARD_EULER}
 
@@ -62,15 +71,15 @@ def contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_rati
 
 
 @ti.func
-def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: vec3, v0: vec3, v1: vec3, w1: vec3, m,
-                     r, gravity: vec3, dt, k, d, integrator, rotation: ti.template()):
+def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template(), x0: vec3, v0: vec3, v1: vec3,
+                     w1: vec3, m, r, gravity: vec3, dt, k, d, integrator, spinning: ti.template()):
     """Every collider's forces on a particle at (x0, v0), colliders at their start pose.
-    rotation: the particle spins (angular velocity w1): friction acts at the contact point
+    spinning: the particle spins (angular velocity w1): friction acts at the contact point
     and turns it, with rolling resistance (spin_friction). Returns (v1 and w1 with the
     forces applied, the clearance: a lower bound on the distance from the particle's
     surface to the nearest collider's reach)."""
     clearance = INFINITY
-    for ci in range(n_colliders):
+    for ci in range(c.count):
         row = table[ci]
         field_range = row[FIELD_RANGE]
         # Outside the bounding sphere and the field: no force (phi is 1-Lipschitz). A plane's
@@ -81,7 +90,7 @@ def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: ve
         if reach > field_range and bound < Collider.UNBOUNDED:
             clearance = ti.min(clearance, reach - field_range)
             continue
-        phi, n = collider_sdf(c, ci, x0, False)
+        phi, n = collider_sdf(c, groups, ci, x0, False)
         gap = phi - r
         clearance = ti.min(clearance, gap - field_range)
         field_kind = ti.cast(row[FIELD_KIND], ti.i32)
@@ -89,7 +98,7 @@ def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: ve
             # query: the surface velocity at the closest surface point (relative velocity)
             vs = surface_velocity(c, ci, carried(c, ci, x0 - phi * n, 0.0))
             if gap < 0.0:
-                # respond: PHYSICS.md 4, the spring-damper at the point of entry, depth = r - phi
+                # respond: docs/physics.md 4, the spring-damper at the point of entry, depth = r - phi
                 vn = (v0 - vs).dot(n)
                 fn = 0.0
                 if integrator == BACKWARD_EULER:
@@ -98,7 +107,7 @@ def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: ve
                     fn = spring_damper(-gap, vn, k, d)
                 v1 += (dt * fn / m) * n
                 # friction against the tangential velocity every force so far would leave
-                if ti.static(rotation):
+                if ti.static(spinning):
                     v1, w1 = spin_friction(v1, w1, vs, c.angular_velocity[ci], n, fn, m, r, dt, row[STATIC_FRICTION],
                                            row[KINETIC_FRICTION], row[VISCOUS_FRICTION], row[ROLLING_FRICTION])
                 else:
@@ -114,75 +123,71 @@ def contact_velocity(c: ti.template(), table: ti.template(), n_colliders, x0: ve
 
 
 @ti.func
-def penalty_particle(p: ti.template(), c: ti.template(), table: ti.template(), i, n_colliders, gravity: vec3,
-                     dt, stiffness, stiffness_per_mass, damping, damping_is_ratio, integrator,
-                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, clearance,
-                     force: ti.template(), use_force: ti.template(), spin: ti.template(), torque: ti.template(),
-                     rotation: ti.template()):
+def penalty_particle(p: ti.template(), c: ti.template(), groups: ti.template(), table: ti.template(), i,
+                     gravity: vec3, dt, stiffness, stiffness_per_mass, damping, damping_is_ratio, integrator,
+                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3, clearance, spin: ti.template(),
+                     loads: ti.template(), spinning: ti.template(), loaded: ti.template()):
     """One substep of particle i; returns its clearance after the substep (<= 0: unknown).
-    With use_force, force[i] (N, e.g. from other particles) joins gravity (and with
-    rotation, torque[i] (N m) turns the particle). rotation: spin[i] holds the particle's
+    loaded: loads.force[i] (N, from other particles) joins gravity, and with spinning
+    loads.torque[i] (N m) turns the particle. spinning: spin.w[i] holds the particle's
     angular velocity (rad/s), integrated like v: w1 = w0 + dt tau / I."""
-    if p.flags[i] == P.ACTIVE:
+    if p.flags[i] == ACTIVE:
         # gather
         x0 = p.x[i]
         v0 = p.v[i]
         m = p.mass[i]
         r = p.radius[i]
-        # forces: gravity (and given forces), then the colliders within reach (none while the
+        # forces: gravity (and given loads), then the colliders within reach (none while the
         # clearance lasts)
         v1 = v0 + dt * gravity
         w1 = vec3(0.0, 0.0, 0.0)
-        if ti.static(rotation):
-            w1 = spin[i]
-        if ti.static(use_force):
-            v1 += (dt / m) * force[i]
-            if ti.static(rotation):
-                w1 += (dt / (SPHERE_INERTIA * m * r * r)) * torque[i]
+        if ti.static(spinning):
+            w1 = spin.w[i]
+        if ti.static(loaded):
+            v1 += (dt / m) * loads.force[i]
+            if ti.static(spinning):
+                w1 += (dt / (SPHERE_INERTIA * m * r * r)) * loads.torque[i]
         if clearance <= 0.0:
             k, d = contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio)
-            v1, w1, clearance = contact_velocity(c, table, n_colliders, x0, v0, v1, w1, m, r, gravity, dt, k, d,
-                                                 integrator, rotation)
+            v1, w1, clearance = contact_velocity(c, groups, table, x0, v0, v1, w1, m, r, gravity, dt, k, d,
+                                                 integrator, spinning)
         # integrate: symplectic Euler, x1 = x0 + dt v1
         x1 = x0 + dt * v1
         clearance -= (x1 - x0).norm()
         # scatter
         store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
-        if ti.static(rotation):
-            if p.flags[i] != P.NON_FINITE:
-                spin[i] = w1
+        if ti.static(spinning):
+            if p.flags[i] != NON_FINITE:
+                spin.w[i] = w1
     return clearance
 
 
-@ti.kernel
-def penalty_substep(x: vectors(), v: vectors(), mass: scalars(), radius: scalars(), flags: scalars(ti.i32),
-                    stats: scalars(ti.i32),
-                    kind: scalars(ti.i32), params: vectors(4), material: vectors(), center0: vectors(),
-                    rotation0: matrices(), center1: vectors(), rotation1: matrices(), velocity: vectors(),
-                    angular_velocity: vectors(), ishape: vectors(8), fshape: vectors(8), fpool: scalars(),
-                    ipool: scalars(ti.i32), groups: ti.template(),
-                    table: vectors(TABLE_WIDTH),
-                    n_particles: ti.i32, n_colliders: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
-                    stiffness: float, stiffness_per_mass: ti.i32, damping: float, damping_is_ratio: ti.i32,
-                    integrator: ti.i32, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
-                    force: vectors(), use_force: ti.template(), spin: vectors(), torque: vectors(),
-                    rotation: ti.template()):
-    # Particles are independent: with colliders that hold still during the call, one launch
-    # runs every substep of a particle in registers, carrying its clearance.
-    for i in range(n_particles):
-        clearance = -1.0
-        for _ in range(n_substeps):
-            clearance = penalty_particle(ParticleArrays(x, v, mass, radius, flags, stats),
-                                         ColliderArrays(kind, params, material, center0, rotation0, center1,
-                                                        rotation1, velocity, angular_velocity, ishape, fshape,
-                                                        fpool, ipool, groups),
-                                         table, i, n_colliders, gravity, dt, stiffness, stiffness_per_mass,
-                                         damping, damping_is_ratio, integrator, use_domain, domain_lo, domain_hi,
-                                         clearance, force, use_force, spin, torque, rotation)
+@functools.cache
+def penalty_kernel(spinning: bool, loaded: bool):
+    """The substep kernel for particles that spin or not (spin: types.SpinArgs), with loads
+    from particle pairs or not (loads: Forces, or ForcesAndTorques for spinning particles)."""
+    SpinType = SpinArgs if spinning else Unused
+    LoadType = (ForcesAndTorques if spinning else Forces) if loaded else Unused
+
+    @ti.kernel
+    def penalty_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), table: ARRAY,
+                        n_substeps: ti.i32, gravity: vec3, dt: float, stiffness: float, stiffness_per_mass: ti.i32,
+                        damping: float, damping_is_ratio: ti.i32, integrator: ti.i32, use_domain: ti.template(),
+                        domain_lo: vec3, domain_hi: vec3, spin: SpinType, loads: LoadType):
+        # Particles are independent: with colliders that hold still during the call, one
+        # launch runs every substep of a particle in registers, carrying its clearance.
+        for i in range(particles.count):
+            clearance = -1.0
+            for _ in range(n_substeps):
+                clearance = penalty_particle(particles, colliders, groups, table, i, gravity, dt, stiffness,
+                                             stiffness_per_mass, damping, damping_is_ratio, integrator, use_domain,
+                                             domain_lo, domain_hi, clearance, spin, loads, spinning, loaded)
+
+    return penalty_substep
 
 
-class PenaltySolver:
-    """Resolve particle-collider contacts with penalty forces (PHYSICS.md 4, seed 002).
+class PenaltySolver(Solver):
+    """Resolve particle-collider contacts with penalty forces (docs/physics.md 4, seed 002).
 
     A penetrating particle (depth = r - phi > 0) feels a zero-length spring-damper at the
     point of entry, f_n = k depth - D (v_rel . n), only pushing, with v_rel its velocity
@@ -209,16 +214,16 @@ class PenaltySolver:
     (impact speeds below about 30 g sqrt(m/k)); faster, it lets the particle leave at up to
     e^-2 = 13.5 % of its impact speed (damping_ratio 2: 4.8 %, 5: 0.9 %).
 
-    rotation: particles spin (False: they are points that slide). Each keeps an angular
+    spin: particles spin (False: they are points that slide). Each keeps an angular
         velocity (Scene.angular_velocities()) and is a solid sphere, I = 2/5 m r^2:
         friction acts at the contact point and turns the particle, so a sphere rolls down
         an incline at a = 5/7 g sin(theta) while static_friction >= 2/7 tan(theta), and a
         sphere thrown along a floor without spin slides, spins up and rolls on at 5/7 of
         its speed. The materials' rolling_friction mu_r resists rolling with a torque of at
         most mu_r r |f_n| (see spin_friction). Pairs between particles (DEM) then exchange
-        torques too (solvers/pairs.py). Not in the PHYSICS.md lecture notes, whose
-        particles are points: an extension for granular piles, which stand on rolling
-        resistance.
+        torques too (solvers/pairs/dem.py). Beyond the lecture notes, whose particles are
+        points: an extension for granular piles, which stand on rolling resistance
+        (docs/physics.md 6). (`rotation` is its old name.)
 
     The scene warns once, before its first step, when dt exceeds 2x the recommended dt of
     its stiffest contact (its lightest particle); `contact_params(mass)` gives the numbers.
@@ -226,17 +231,20 @@ class PenaltySolver:
     bounce comes from the damping).
     """
 
+    pair_model = "dem"
+
+    @validate.renamed_arguments(rotation="spin")
     def __init__(self, *, stiffness: float | None = None, damping: float | None = None,
                  hertz: float | None = None, damping_ratio: float | None = None,
-                 integrator: str = "symplectic_euler", rotation: bool = False):
+                 integrator: str = "symplectic_euler", spin: bool = False):
         if (stiffness is None) == (hertz is None):
             raise ValueError("give exactly one of stiffness (N/m) or hertz (Hz); "
                              f"got stiffness={stiffness!r}, hertz={hertz!r}")
         if damping is not None and damping_ratio is not None:
             raise ValueError("give at most one of damping (N s/m) or damping_ratio; "
                              f"got damping={damping!r}, damping_ratio={damping_ratio!r}")
-        if not isinstance(rotation, (bool, np.bool_)):
-            raise TypeError(f"rotation must be True or False; got {type(rotation).__name__}")
+        if not isinstance(spin, (bool, np.bool_)):
+            raise TypeError(f"spin must be True or False; got {type(spin).__name__}")
         if integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {tuple(INTEGRATORS)}; got {integrator!r}")
         self.stiffness = validate.real("stiffness", stiffness, low=0.0, low_open=True, allow_none=True)
@@ -244,14 +252,14 @@ class PenaltySolver:
         self.damping = validate.real("damping", damping, low=0.0, allow_none=True)
         self.damping_ratio = validate.real("damping_ratio", damping_ratio, low=0.0, allow_none=True)
         self.integrator = integrator
-        self.rotation = bool(rotation)
+        self.spin = bool(spin)
         self._tables = weakref.WeakKeyDictionary()  # scene -> (key, per-collider ndarray)
 
     def __repr__(self):
         k = f"stiffness={self.stiffness:g}" if self.stiffness is not None else f"hertz={self.hertz:g}"
         d = ("damping=critical" if self.damping is None and self.damping_ratio is None else
              f"damping={self.damping:g}" if self.damping is not None else f"damping_ratio={self.damping_ratio:g}")
-        spin = ", rotation=True" if self.rotation else ""
+        spin = ", spin=True" if self.spin else ""
         return f"PenaltySolver({k}, {d}, integrator={self.integrator!r}{spin})"
 
     # ---------------------------------------------------------------- constants
@@ -272,29 +280,29 @@ class PenaltySolver:
         """The 1-D contact model's numbers for a particle of this mass (tc.params.contact)."""
         return params.contact(mass, self.contact_stiffness(mass), self.contact_damping(mass))
 
-    def _stiffest(self, scene) -> params.ContactParams | None:
+    def _stiffest(self, world) -> params.ContactParams | None:
         """The contact with the smallest characteristic time: the lightest particle's."""
-        if scene.num_particles == 0:
+        if world.particles.count == 0:
             return None
-        return self.contact_params(float(np.min(scene.masses())))
+        return self.contact_params(float(np.min(world.particles.read("mass"))))
 
-    def check(self, scene) -> list[str]:
+    def check(self, world, dt: float) -> list[str]:
         """Warnings for the scene as it stands (called by Scene before stepping)."""
-        if self.integrator == "backward_euler" or len(scene.colliders) == 0:
+        if self.integrator == "backward_euler" or len(world.colliders) == 0:
             return []
-        contact = self._stiffest(scene)
-        if contact is None or scene.dt <= WARN_FACTOR * contact.recommended_dt:
+        contact = self._stiffest(world)
+        if contact is None or dt <= WARN_FACTOR * contact.recommended_dt:
             return []
-        return [f"PenaltySolver: dt = {scene.dt:.3g} s is {scene.dt / contact.recommended_dt:.1f}x the recommended "
+        return [f"PenaltySolver: dt = {dt:.3g} s is {dt / contact.recommended_dt:.1f}x the recommended "
                 f"dt {contact.recommended_dt:.3g} s of the stiffest contact (k = {contact.stiffness:.4g} N/m, "
                 f"m = {contact.mass:.4g} kg, D = {contact.damping:.4g} N s/m, {contact.regime}, natural period "
                 f"{contact.natural_period:.3g} s, smallest characteristic time {contact.smallest_time:.3g} s); "
                 f"explicit integration diverges beyond dt = {contact.stability_limit:.3g} s. Use "
                 f"dt <= {contact.recommended_dt:.3g} s, a softer contact, or integrator='backward_euler'."]
 
-    def stability_advice(self, scene) -> str | None:
+    def stability_advice(self, world) -> str | None:
         """What to change when a run went non-finite (Scene adds it to its error)."""
-        contact = self._stiffest(scene)
+        contact = self._stiffest(world)
         if contact is None:
             return None
         return (f"the penalty contacts' recommended dt is {contact.recommended_dt:.3g} s (k = "
@@ -302,12 +310,12 @@ class PenaltySolver:
                 f"diverges beyond {contact.stability_limit:.3g} s)")
 
     # ---------------------------------------------------------------- stepping
-    def _collider_table(self, scene):
-        """Friction coefficients and repulsion fields of the scene's colliders, one row each,
-        uploaded again only when colliders or their materials change."""
-        entries = scene.colliders
+    def _collider_table(self, colliders):
+        """Friction coefficients and repulsion fields of the colliders (a ColliderTable), one
+        row each, uploaded again only when colliders or their materials change."""
+        entries = colliders.entries
         key = tuple((e.material, id(e.repulsion)) for e in entries)
-        cached = self._tables.get(scene)
+        cached = self._tables.get(colliders)
         if cached is not None and cached[0] == key:
             return cached[1]
         rows = np.zeros((max(len(entries), 1), TABLE_WIDTH), dtype=runtime.float_dtype())
@@ -316,35 +324,38 @@ class PenaltySolver:
             row[:] = (m.static_friction, m.friction, m.wet_friction, *pack(e.repulsion), m.rolling_friction)
         table = ti.Vector.ndarray(TABLE_WIDTH, float, shape=len(rows))
         table.from_numpy(rows)
-        self._tables[scene] = (key, table)
+        self._tables[colliders] = (key, table)
         return table
 
-    def kernel_constants(self):
-        """(stiffness, per_mass, damping, is_ratio) as the kernels take them: stiffness holds
-        (2 pi f)^2 when per_mass, damping holds zeta when is_ratio."""
+    def contact_law(self) -> dict:
+        """The contact constants as kernels take them, by name: `stiffness` holds (2 pi f)^2
+        when `stiffness_per_mass` (k = m (2 pi f)^2), `damping` holds zeta when
+        `damping_is_ratio` (D = 2 zeta sqrt(m k))."""
         per_mass = self.stiffness is None
         stiffness = (2.0 * np.pi * self.hertz) ** 2 if per_mass else self.stiffness
         is_ratio = self.damping is None
         damping = (1.0 if self.damping_ratio is None else self.damping_ratio) if is_ratio else self.damping
-        return stiffness, int(per_mass), damping, int(is_ratio)
+        return dict(stiffness=stiffness, stiffness_per_mass=int(per_mass), damping=damping,
+                    damping_is_ratio=int(is_ratio))
 
-    def advance(self, scene, dt: float, substeps: int = 1, force=None, torque=None):
-        """Advance every active particle of `scene` by `substeps` substeps of dt against its
-        colliders, which must keep their current poses for the whole call. `force`: an
-        optional ndarray of per-particle forces (N) held for the call (other particles'),
-        and with rotation `torque` (N m) likewise."""
-        particles = scene._particles
-        if self.rotation:
-            if force is not None and torque is None:
-                raise ValueError("torque: a rotating PenaltySolver given forces needs their torques too")
+    def advance(self, world, dt: float, substeps: int = 1, loads=None):
+        """Advance every active particle by `substeps` substeps of dt against the colliders,
+        which must keep their current poses for the whole call. `loads`: optional per-particle
+        loads held for the call (other particles'): Forces, or ForcesAndTorques when the
+        particles spin."""
+        particles = world.particles
+        if self.spin:
             particles.enable_spin()
-        table = self._collider_table(scene)
-        stiffness, per_mass, damping, is_ratio = self.kernel_constants()
-        lo, hi = scene.domain if scene.domain is not None else (np.zeros(3), np.zeros(3))
-        penalty_substep(*scene._particles.kernel_args(), *scene._colliders.kernel_args(), scene._colliders.groups,
-                        table, scene._particles.count, len(scene._colliders), substeps, vec3(*scene.gravity), dt,
-                        stiffness, per_mass, damping, is_ratio, INTEGRATORS[self.integrator],
-                        scene.domain is not None, vec3(*lo), vec3(*hi),
-                        force if force is not None else particles.v, force is not None,
-                        particles.w if self.rotation else particles.v,
-                        torque if torque is not None else particles.v, self.rotation)
+        use_domain, lo, hi = world.domain_bounds()
+        particles.mark_moved()
+        kernel = penalty_kernel(self.spin, loads is not None)
+        kernel(particles=particles.args, colliders=world.colliders.args, groups=world.colliders.groups,
+               table=self._collider_table(world.colliders), n_substeps=substeps, gravity=vec3(*world.gravity), dt=dt,
+               **self.contact_law(), integrator=INTEGRATORS[self.integrator], use_domain=use_domain,
+               domain_lo=vec3(*lo), domain_hi=vec3(*hi), spin=particles.spin_args if self.spin else unused(),
+               loads=loads if loads is not None else unused())
+
+    def pair_substep(self, world, pairs, dt: float):
+        """One substep with DEM pairs: their forces at the substep's start, then this solver's
+        substep against the colliders with those forces."""
+        pairs.dem_substep(world, self, dt)

@@ -1,4 +1,5 @@
-"""Graph-coloured Gauss-Seidel passes over particle pairs (the alternative to Jacobi in pairs.py).
+"""Graph-coloured Gauss-Seidel passes over particle pairs (docs/physics.md 5; the alternative
+to the Jacobi passes of jacobi.py, and the default).
 
 A Gauss-Seidel pass resolves one pair at a time and applies its impulse (or separation) to both
 particles at once, so the next pair sees the result: support from a floor climbs a column of
@@ -29,11 +30,9 @@ The colouring needs the buckets the neighbour lists were built from (HashGrid.bu
 
 import taichi as ti
 
-from .. import runtime
-from ..response.laws import TINY, pair_normal, respond
-
-vec3 = ti.math.vec3
-ivec3 = ti.math.ivec3
+from ... import runtime
+from ...response.laws import TINY, pair_normal, respond
+from ...types import ARRAY, GridArgs, ListArgs, ParticleArgs, ivec3, vec3
 
 COLOURS = 8
 # A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
@@ -87,16 +86,16 @@ SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
-def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti.types.ndarray(),
-          entries: ti.types.ndarray(), neighbours: ti.types.ndarray(), neighbour_count: ti.types.ndarray(),
-          x: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(), restitution: float,
-          friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float, dt: float,
+def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: ListArgs, particles: ParticleArgs,
+          restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
+          dt: float,
           # outputs
-          changed: ti.types.ndarray(),
+          changed: ARRAY,
           # in-out
-          v_test: ti.types.ndarray(), x1: ti.types.ndarray(), v1: ti.types.ndarray()):
-    """One pass over the pairs touching at the candidates x1, in colour order (see the module's
-    notes); changed[0]: whether any pair had something to do. Modes:
+          v_test: ARRAY, x1: ARRAY, v1: ARRAY):
+    """One pass over the pairs of the forward neighbour lists touching at the candidates x1,
+    in colour order (see the module's notes; the grid: the sort the lists were built from);
+    changed[0]: whether any pair had something to do. Modes:
     ELASTIC, CONTACT: the law (restitution, Coulomb and wet friction) on the velocities v_test
         of each approaching pair, its change applied to both. ELASTIC (v_test = v(t)): the
         change added to v_test and to the candidates, v1 += dv, x1 += dt dv. CONTACT (v_test
@@ -111,30 +110,32 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti
     CPU): the units running at once share no particle. Divisions by the pair's mass sum are
     kept off the chain of dependent pairs (1 / (m_i + m_j) depends on the masses alone)."""
     changed[0] = 0
-    units = 1 << (bits.x + bits.y + bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)  # per colour
+    # units per colour
+    units = 1 << (grid.bits.x + grid.bits.y + grid.bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)
     for c in ti.static(range(COLOURS)):
         for u in range(units):
-            origin = unit_origin(c, u, bits, unit_bits)
+            origin = unit_origin(c, u, grid.bits, unit_bits)
             found = 0
             for r in range(1 << (unit_bits[1] + unit_bits[2])):  # the unit's rows
-                begin, end = row_range(origin, r, bits, starts, unit_bits)
+                begin, end = row_range(origin, r, grid.bits, grid.starts, unit_bits)
                 for slot in range(begin, end):
-                    i = entries[slot]
-                    ri = radius[i]
-                    mi = mass[i]
+                    i = grid.entries[slot]
+                    ri = particles.radius[i]
+                    mi = particles.mass[i]
                     xi = x1[i]
                     vi = v_test[i]  # (projection: unused)
                     moved = vec3(0.0)  # projection: i's displacement in this pass
-                    for k in range(neighbour_count[i]):
-                        j = neighbours[i, k]
+                    for k in range(lists.neighbour_count[i]):
+                        j = lists.neighbours[i, k]
                         xj = x1[j]
-                        reach = ri + radius[j]
+                        reach = ri + particles.radius[j]
                         touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
                         d = xi - xj
                         d2 = d.norm_sqr()
-                        if d2 < touch * touch and (ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
+                        if d2 < touch * touch and (ti.static(mode == PROJECTION)
+                                                   or may_approach(vi - v_test[j], d, d2)):
                             nrm, dist = pair_normal(xi, xj, i, j)
-                            mj = mass[j]
+                            mj = particles.mass[j]
                             if ti.static(mode == PROJECTION):
                                 found = 1
                                 move = ((reach - dist) * (relaxation / (mi + mj))) * nrm
@@ -156,8 +157,8 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti
                                         x1[j] = xj - (dt * mi) * change
                                         xi += (dt * mj) * change
                                     elif ti.static(mode == CONTACT):
-                                        x1[j] = x[j] + dt * vj
-                                        xi = x[i] + dt * vi
+                                        x1[j] = particles.x[j] + dt * vj
+                                        xi = particles.x[i] + dt * vi
                     x1[i] = xi
                     if ti.static(mode == PROJECTION):
                         v1[i] = v1[i] + moved / dt
@@ -170,24 +171,24 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), bits: ivec3, starts: ti
                 changed[0] = 1
 
 
-def _grid(grid) -> tuple:
-    """_pass's first arguments after the mode: the unit shape for this arch, the grid's arrays."""
-    return unit_bits(), grid.bits, grid.starts, grid.entries, grid.neighbours, grid.neighbour_count
-
-
-def velocity_pass(elastic: bool, x, mass, radius, grid, law: tuple, relaxation: float, dt: float, changed, v_test,
+def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float, changed, v_test,
                   x1, v1):
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
-    law with e = 0) over the pairs of `grid`'s forward lists; see _pass."""
-    _pass(ELASTIC if elastic else CONTACT, *_grid(grid), x, mass, radius, *law, relaxation, dt, changed, v_test, x1,
-          v1)
+    law with e = 0) over the pairs of the forward lists; see _pass. particles: the store's
+    pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
+    wet_friction and wet_law by name."""
+    _pass(mode=ELASTIC if elastic else CONTACT, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles,
+          **law, relaxation=relaxation, dt=dt, changed=changed, v_test=v_test, x1=x1, v1=v1)
 
 
-def settle_pass(x, mass, radius, grid, law: tuple, dt: float, changed, x1, v1):
+def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1):
     """A velocity pass at the final positions, positions unchanged; see _pass."""
-    _pass(SETTLE, *_grid(grid), x, mass, radius, *law, 1.0, dt, changed, v1, x1, v1)
+    _pass(mode=SETTLE, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=1.0,
+          dt=dt, changed=changed, v_test=v1, x1=x1, v1=v1)
 
 
-def projection_pass(mass, radius, grid, relaxation: float, dt: float, changed, x1, v1):
-    """A projection pass over the pairs of `grid`'s forward lists; see _pass."""
-    _pass(PROJECTION, *_grid(grid), x1, mass, radius, 0.0, 0.0, 0.0, 0, relaxation, dt, changed, v1, x1, v1)
+def projection_pass(particles, grid, lists, relaxation: float, dt: float, changed, x1, v1):
+    """A projection pass over the pairs of the forward lists; see _pass."""
+    _pass(mode=PROJECTION, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, restitution=0.0,
+          friction=0.0, wet_friction=0.0, wet_law=0, relaxation=relaxation, dt=dt, changed=changed, v_test=v1,
+          x1=x1, v1=v1)

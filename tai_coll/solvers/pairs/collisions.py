@@ -1,0 +1,346 @@
+"""Particles hitting particles (docs/physics.md 5): the orchestrator of a substep with pairs.
+
+A substep with impulse pairs (the ImpulseSolver's, `impulse_substep`), in phases:
+1. predict: candidates x1 = x + dt v1, v1 = v + dt g (symplectic Euler; predict.py);
+2. neighbours: the hash grid on the candidates, lists of particles within reach (kept from
+   earlier substeps while they hold, with a Verlet skin);
+3. elastic pass: for pairs overlapping at the candidates, the law with restitution on the
+   velocities at the start of the substep, its change added to the candidates; then the
+   colliders' own scheme on the candidates;
+4. contact passes (e = 0, friction as usual) on the candidate velocities, re-integrating
+   x1 = x + dt v1 after each, alternating with the colliders' contact passes, so that support
+   from a floor reaches the top of a stack within a substep;
+5. projection passes: overlap left after the velocity passes is removed by moving positions
+   apart, split by inverse mass (momentum and the centre of mass unchanged); Gauss-Seidel
+   then takes a settle pass: the law (with restitution: a pair that comes into contact just
+   then still bounces) on the pairs touching at the final positions, positions unchanged,
+   so no contact carries approaching velocity into the next substep;
+6. colliders: the solver resolves the candidates against the colliders last, so no particle
+   ends inside a collider; the result is the new state.
+The passes visit the pairs one after another over a colouring of the grid (gauss_seidel.py,
+the default) or all at once (jacobi.py).
+
+A substep with DEM pairs (the PenaltySolver's, `dem_substep`): the pair forces at the
+substep's start (dem.py), from the grid sorted this substep or from Verlet lists, then the
+solver's substep against the colliders with those forces as loads.
+
+Both reorder the particle store by cell now and then (`reorder`): neighbours then lie near
+each other in memory. The settings are a PairSettings (settings.py); this object holds the
+work arrays, the grid, the lists and the springs, and counts what happened.
+"""
+
+import taichi as ti
+
+from ... import runtime
+from ...neighbors.hash_grid import HashGrid
+from ...neighbors.verlet import VerletLists
+from ...response.laws import WET_LAWS
+from ...types import unused
+from ..penalty import Forces, ForcesAndTorques
+from . import dem, gauss_seidel, jacobi
+from .overlap import overlap
+from .predict import predict_kernel
+from .settings import PairSettings
+from .springs import SpringHistory
+
+# Substeps (builds of the lists) between reorderings of the store by cell: particles move
+# little in a few substeps, so the order stays coherent, and the permutation's cost is spread.
+REORDER_INTERVAL = 8
+
+
+class ParticleCollisions:
+    """Particle-particle collisions of a scene (Scene.enable_particle_collisions returns it).
+
+    settings: the PairSettings (its fields also read through this object: .method,
+        .iterations, ...).
+    neighbour_overflow, history_overflow, list_builds: what happened so far (see each).
+    """
+
+    def __init__(self, settings: PairSettings):
+        self.settings = settings
+        self.grid = HashGrid()
+        self.lists = VerletLists()
+        self.springs = SpringHistory()
+        self.capacity = 0
+        self._since_reorder = REORDER_INTERVAL  # lists built since the store was last reordered
+        self._sorted_key = None  # the store's (edits, count) when the grid last sorted it
+        self._latest_counts = None  # the array with the latest per-particle contact counts (Jacobi)
+        self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
+        self._law = None  # (key, the DEM law's argument pack)
+
+    def __getattr__(self, name):
+        # the settings' fields, read through this object as before it had `settings`
+        if name in PairSettings.__dataclass_fields__:
+            return getattr(self.settings, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __repr__(self):
+        return f"ParticleCollisions({self.settings})"
+
+    def _ensure(self, capacity: int):
+        """Work arrays as large as the particle store (so whole-array copies line up)."""
+        if capacity == self.capacity:
+            return
+        self.capacity = capacity
+        self.x1 = ti.Vector.ndarray(3, float, shape=capacity)
+        self.v1 = ti.Vector.ndarray(3, float, shape=capacity)
+        self.v_start = ti.Vector.ndarray(3, float, shape=capacity)
+        self.delta = ti.Vector.ndarray(3, float, shape=capacity)
+        self.contacts = ti.ndarray(ti.i32, shape=capacity)
+        self.torque = None  # DEM pairs of spinning particles (see _loads)
+        self._load_args = None
+        self.changed = ti.ndarray(ti.i32, shape=1)
+        self.lists.invalidate()
+
+    # ---------------------------------------------------------------- counters
+    @property
+    def list_builds(self) -> int:
+        """Substeps that built the neighbour lists (the others reused them)."""
+        return self.lists.builds
+
+    @property
+    def neighbour_overflow(self) -> int:
+        """Neighbours left out of full lists since the start, and contacts with them missed (a
+        read from the device); more than NEIGHBOUR_CAPACITY particles within a particle's reach
+        means particles far smaller than the largest, or a pile crushed far beyond its radii.
+        (The DEM kernel's lists miss none: while they are full it queries the grid instead.)"""
+        return self.grid.dropped() - self._dem_dropped
+
+    @property
+    def history_overflow(self) -> int:
+        """Contacts a particle touched beyond the HISTORY whose tangential springs it keeps, summed
+        over the substeps so far (a read from the device): these slid by the regularised
+        friction instead."""
+        return self.springs.overflowed
+
+    @property
+    def forward_lists(self) -> bool:
+        """Whether the neighbour lists hold each pair once (HashGrid.build's forward lists):
+        what the Gauss-Seidel passes read; Jacobi's read every particle's full list."""
+        return self.settings.method == "gauss-seidel"
+
+    def arrays(self) -> list:
+        """Every per-particle array held here and in the grid (for memory accounting): the
+        work arrays (those of the impulse passes only when they ran), Verlet, springs, torques."""
+        if not self.capacity:
+            return []
+        held = [self.delta] + self.grid.arrays() + self.springs.arrays()
+        if self._latest_counts is not None:
+            held += [self.x1, self.v1, self.v_start, self.contacts]
+        if self.lists.listed_at is not None:
+            held.append(self.lists.listed_at)
+        if self.torque is not None:
+            held.append(self.torque)
+        return held
+
+    # ---------------------------------------------------------------- the grid and the store's order
+    def _sort(self, particles, x, cell_size: float):
+        """The grid's counting sort of the store's particles (at positions x)."""
+        self.grid.sort(x, particles.radius, particles.flags, particles.count, cell_size)
+        self._sorted_key = (particles.edits, particles.count)
+
+    def _reorder(self, particles):
+        """Put the store in the order of the grid's last sort, if it sorted the store as it is
+        (the particles have moved since, by a substep or a few: the order stays coherent),
+        at most once every REORDER_INTERVAL calls."""
+        self._since_reorder += 1
+        if (self.settings.reorder and particles.count and self._since_reorder >= REORDER_INTERVAL
+                and self._sorted_key == (particles.edits, particles.count)):
+            particles.permute(self.grid.entries, particles.count)
+            self.springs.permute(self.grid.entries, particles.count, particles)  # springs move with them
+            self._since_reorder = 0
+
+    # ---------------------------------------------------------------- impulse pairs
+    def impulse_substep(self, world, solver, dt: float):
+        """One substep with impulse pairs (the module's phases 1-6); solver: the scene's
+        ImpulseSolver, which resolves the colliders."""
+        particles = world.particles
+        self._ensure(particles.capacity)
+        settings = self.settings
+        r_max = particles.max_radius
+        m = settings.material
+        law = dict(restitution=m.restitution, friction=m.friction, wet_friction=m.wet_friction,
+                   wet_law=WET_LAWS["linear"])
+        # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
+        #    the first pass's shares use; each pass counts them for the next, into the other array)
+        contacts = self._predict_and_list(world, dt, settings.margin_length(r_max), settings.skin_length(r_max))
+        self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
+        # 3. elastic pass on v(t)
+        self.v_start.copy_from(particles.v)
+        if not self._velocity_pass(particles, dt, law, elastic=True) and settings.method == "jacobi":
+            self._counts.reverse()  # (it counted the contacts all the same)
+        #    ... and the colliders' own scheme (its elastic pass included) on the candidates
+        solver.resolve_candidates(world, dt, self.x1, self.v1, store_state=False)
+        # 4. contact passes on the candidate velocities, e = 0, alternating with the colliders'
+        #    contact passes. A pass that finds no approaching pair ends the loop (the next would
+        #    be the same); likewise a projection pass that finds no overlap.
+        contact_law = dict(law, restitution=0.0)
+        for _ in range(settings.iterations):
+            if not self._velocity_pass(particles, dt, contact_law, elastic=False):
+                break
+            solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=False)
+        # 5. projection passes on positions
+        for _ in range(settings.projection_iterations):
+            if not self._projection_pass(particles, dt):
+                break
+        if settings.method == "gauss-seidel":
+            # a last velocity pass at the final positions: without it, particles jammed deep in
+            # a pile are thrown back and forth by the projection's velocity, towards a different
+            # neighbour each substep (a jitter of period two substeps)
+            gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt, self.changed, self.x1,
+                                     self.v1)
+        # 6. colliders last, and the new state
+        solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
+        self._latest_counts = self._counts[0]
+
+    def _predict_and_list(self, world, dt: float, reach: float, skin: float):
+        """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach
+        of each other at them, kept from earlier substeps while they still hold. Returns the
+        array holding each particle's contact count at the candidates (for the first pass)."""
+        particles = world.particles
+        n = particles.count
+        key = (particles.edits, n, reach, skin, particles.capacity, self.settings.method)
+        keep = skin > 0.0
+        if keep:
+            self.lists.ensure(self.capacity)
+        predict = predict_kernel(keep)
+        launch = dict(particles=particles.args, gravity=ti.math.vec3(*world.gravity), dt=dt,
+                      seen=self.lists.args if keep else unused(), reach2=(0.5 * skin) ** 2, x1=self.x1, v1=self.v1,
+                      stale=self.changed)
+        if self.lists.key == key and keep:
+            predict(**launch)
+            if not self._changed():
+                return self._latest_counts
+        self._reorder(particles)  # (swaps the store's arrays)
+        launch["particles"] = particles.args
+        predict(**launch)
+        self.grid.build(self.x1, particles.radius, particles.flags, n, 2.0 * particles.max_radius + reach + skin,
+                        reach + skin, forward=self.forward_lists)
+        self._sorted_key = (particles.edits, n)
+        if keep:
+            self.lists.mark(self.x1, particles.flags, n)
+        self.lists.built((particles.edits,) + key[1:])
+        return self.grid.touching
+
+    def _velocity_pass(self, particles, dt: float, law: dict, elastic: bool) -> bool:
+        """One velocity pass (elastic: on v(t), else a contact pass on the candidates' velocities);
+        returns whether any pair approached."""
+        v_test = self.v_start if elastic else self.v1  # the velocities the law acts on
+        if self.settings.method == "gauss-seidel":
+            # the elastic pass is not over-relaxed: an isolated pair bounces with e exactly
+            gauss_seidel.velocity_pass(elastic, particles.args, self.grid.args, self.grid.lists, law,
+                                       1.0 if elastic else self.settings.relaxation, dt, self.changed, v_test, self.x1,
+                                       self.v1)
+        else:
+            jacobi.velocity_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
+                                 v_test=v_test, **law, relaxation=self.settings.relaxation, dt=dt,
+                                 elastic=int(elastic), dv=self.delta, contacts_now=self._counts[1],
+                                 changed=self.changed, v_start=self.v_start, x1=self.x1, v1=self.v1)
+        return self._passed()
+
+    def _projection_pass(self, particles, dt: float) -> bool:
+        """One projection pass; returns whether any pair overlapped."""
+        if self.settings.method == "gauss-seidel":
+            gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, self.settings.relaxation, dt,
+                                         self.changed, self.x1, self.v1)
+        else:
+            jacobi.projection_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
+                                   relaxation=self.settings.relaxation, dt=dt, dx=self.delta,
+                                   contacts_now=self._counts[1], changed=self.changed, x1=self.x1, v1=self.v1)
+        return self._passed()
+
+    def _changed(self) -> bool:
+        """Whether the last pass (or check of the lists) had anything to do (a read from the device)."""
+        return bool(self.changed[0])
+
+    def _passed(self) -> bool:
+        """Whether the last pass had anything to do; a Jacobi pass that did passes its contact
+        counts on to the next (see jacobi.pair_share)."""
+        changed = self._changed()
+        if changed and self.settings.method == "jacobi":
+            self._counts.reverse()
+        return changed
+
+    # ---------------------------------------------------------------- DEM pairs
+    def dem_substep(self, world, solver, dt: float):
+        """One substep with DEM pairs: their forces at the substep's start, then the solver's
+        substep (a PenaltySolver) against the colliders with those forces as loads."""
+        particles = world.particles
+        self._ensure(particles.capacity)
+        settings = self.settings
+        with_springs = settings.tangential_springs
+        spinning = solver.spin
+        if with_springs:
+            self.springs.fit(particles, spinning)  # before the reordering, which moves them with the store
+        if spinning:
+            particles.enable_spin()  # (before the reordering, which moves the spins with the store)
+        loads = self._loads(spinning)
+        skin = settings.skin_length(particles.max_radius)
+        listed = skin > 0.0 and self._dem_lists(particles, skin)
+        if not listed:
+            if skin == 0.0:  # (with lists, the store is reordered when they are built)
+                self._reorder(particles)
+            self._sort(particles, particles.x, 2.0 * particles.max_radius)
+        kernel = dem.dem_force_kernel(runtime.info().precision, listed, with_springs, spinning)
+        kernel(particles=particles.args, candidates=self.grid.lists if listed else self.grid.args,
+               inv_cell=self.grid.inv_cell, ids=particles.ids,
+               springs=self.springs.args if with_springs else unused(),
+               spin=particles.spin_args if spinning else unused(), law=self._dem_law(solver, dt), loads=loads)
+        if with_springs:  # this substep's springs are the current ones
+            self.springs.swap()
+        solver.advance(world, dt, 1, loads=loads)
+
+    def _loads(self, spinning: bool):
+        """The pair forces (and torques, for spinning particles) as one argument pack."""
+        if spinning and self.torque is None:
+            self.torque = ti.Vector.ndarray(3, float, shape=self.capacity)
+        if self._load_args is None or self._load_args[0] != spinning:
+            pack = ForcesAndTorques(force=self.delta, torque=self.torque) if spinning else Forces(force=self.delta)
+            self._load_args = (spinning, pack)
+        return self._load_args[1]
+
+    def _dem_law(self, solver, dt: float):
+        """The DEM law's constants (dem.dem_law_type), rebuilt when dt or the solver's
+        constants change."""
+        m = self.settings.material
+        constants = solver.contact_law()
+        key = (dt, tuple(constants.values()), runtime.info().generation)
+        if self._law is None or self._law[0] != key:
+            pack = dem.dem_law_type(runtime.info().precision)(
+                dt=dt, **constants, static_friction=m.static_friction, kinetic_friction=m.friction,
+                viscous_friction=m.wet_friction, rolling_friction=m.rolling_friction,
+                tangential_ratio=self.settings.tangential_ratio)
+            self._law = (key, pack)
+        return self._law[1]
+
+    def _dem_lists(self, particles, skin: float) -> bool:
+        """The DEM kernel's Verlet lists: every pair closer than r_i + r_j + skin, built from the
+        grid (at most every REORDER_INTERVAL builds after reordering the store by it) and kept
+        until some particle has moved more than skin / 2 from where they saw it, or changed
+        status, or the store was written. Returns whether they hold every such pair: False
+        when a particle had more neighbours than the lists keep (the force kernel then queries
+        the grid, sorted anew, until the next build)."""
+        n = particles.count
+        key = (particles.edits, n, skin, particles.capacity, "dem")
+        self.lists.ensure(self.capacity)
+        if self.lists.key == key and not self.lists.moved(particles.x, particles.flags, n, skin):
+            return self.lists.complete
+        self._reorder(particles)  # (swaps the store's arrays)
+        dropped = self.grid.dropped()
+        self.grid.build(particles.x, particles.radius, particles.flags, n, 2.0 * particles.max_radius + skin, skin)
+        self._sorted_key = (particles.edits, n)
+        self.lists.mark(particles.x, particles.flags, n)
+        self.lists.built((particles.edits,) + key[1:])
+        self.lists.complete = self.grid.dropped() == dropped
+        self._dem_dropped += self.grid.dropped() - dropped  # (not missed: see neighbour_overflow)
+        return self.lists.complete
+
+    # ---------------------------------------------------------------- measuring
+    def overlap(self, world) -> dict:
+        """Overlap between particles now, relative to the smaller radius of each pair:
+        {"max": ..., "mean": ... over overlapping pairs, "pairs": count}."""
+        particles = world.particles
+        self._sort(particles, particles.x, 2.0 * particles.max_radius)
+        self.lists.invalidate()  # the sort replaced the buckets the lists (and their colouring) came from
+        self._ensure(particles.capacity)
+        return overlap(self.grid, particles.flags, particles.count, self.delta)

@@ -1,0 +1,101 @@
+"""What every layer shares: particle status flags, event-counter slots, and the Taichi
+argument packs that kernels take.
+
+This is the bottom of the package: it imports Taichi and nothing of tai_coll but the runtime.
+
+Argument packs (`ti.types.argpack`) name a kernel's arrays. A kernel takes, say,
+`particles: ParticleArgs` and reads `particles.x[i]`, and hands the pack on to its @ti.func
+helpers as a template argument. The scene's containers build their pack once and rebuild it
+only when their arrays are reallocated or swapped (`ParticleStore.args`,
+`ColliderTable.args`), since building one costs about as much as a launch.
+
+Taichi turns the members of a kernel's packs into kernel arguments of the same names, so two
+packs a kernel takes must not share an array member's name, and a kernel's own local
+variables must not take one (a @ti.func's may): hence `neighbour_count`, not `count`, and
+the springs' `held`, `stretch`, ....
+
+Packs hold arrays and integers only. Array element types are left to the arrays passed in,
+so one kernel serves f32 and f64 alike; a float member of a pack type, by contrast, would be
+fixed to the precision Taichi had when this module was imported, before `tc.init()` chose
+f32 or f64. Float settings therefore travel as named kernel parameters.
+"""
+
+import taichi as ti
+
+from . import runtime
+
+vec3 = ti.math.vec3
+vec4 = ti.math.vec4
+ivec3 = ti.math.ivec3
+mat3 = ti.math.mat3
+
+# ---------------------------------------------------------------------------- particle status
+# ParticleStore.flags: what became of a particle.
+ACTIVE = 0
+LEFT_DOMAIN = 1  # left the scene's domain box: frozen where it left, no longer simulated
+NON_FINITE = 2   # its state turned NaN/inf: frozen at its last finite state
+STATUS_NAMES = ("active", "left_domain", "non_finite")
+
+# ---------------------------------------------------------------------------- event counters
+# Slots of the per-scene event counters (ParticleStore.stats), drained into Scene.stats().
+STAT_FAILSAFE = 0
+STAT_REPULSION = 1
+STAT_NON_FINITE = 2
+STAT_LEFT_DOMAIN = 3
+STAT_NAMES = ("failsafe", "repulsion", "non_finite", "left_domain")
+
+# ---------------------------------------------------------------------------- argument packs
+#: An array of one element per item (scalar, vector or matrix, in the array's own dtype).
+ARRAY = ti.types.ndarray(ndim=1)
+#: An array of rows: items x slots (neighbour lists, springs).
+TABLE = ti.types.ndarray(ndim=2)
+
+#: The particle store (scene/particles.py): count, positions x (m), velocities v (m/s),
+#: mass (kg), radius (m), status flags (ACTIVE, ...) and the event counters (STAT_...).
+ParticleArgs = ti.types.argpack(count=ti.i32, x=ARRAY, v=ARRAY, mass=ARRAY, radius=ARRAY, flags=ARRAY,
+                                stats=ARRAY)
+
+#: Angular velocities (rad/s) of spinning particles, beside the ParticleArgs.
+SpinArgs = ti.types.argpack(w=ARRAY)
+
+#: Array-backed shape data (grids, triangles, heights): per collider 8 integers (`ishape`)
+#: and 8 floats (`fshape`) describing its block, and the float and integer pools the blocks
+#: live in. Geometry functions take it (or a ColliderArgs, which has the same members) as
+#: `g` with a collider index; analytic shapes ignore it. Host queries pass one collider's
+#: numpy rows, hence the explicit 8-vector element types.
+ShapeArgs = ti.types.argpack(ishape=ti.types.ndarray(dtype=ti.types.vector(8, ti.i32), ndim=1),
+                             fshape=ti.types.ndarray(dtype=ti.types.vector(8, float), ndim=1),
+                             fpool=ARRAY, ipool=ARRAY)
+
+#: The collider table (scene/colliders.py): count, kind, params (4 floats: shape parameters
+#: and, in slot 3, a bounding-sphere radius), material (restitution, friction, wet friction),
+#: the poses at the start (center0, rotation0) and end (center1, rotation1) of the substep,
+#: the surface motion (velocity, angular_velocity) and the shape data of ShapeArgs.
+ColliderArgs = ti.types.argpack(count=ti.i32, kind=ARRAY, params=ARRAY, material=ARRAY, center0=ARRAY,
+                                rotation0=ARRAY, center1=ARRAY, rotation1=ARRAY, velocity=ARRAY,
+                                angular_velocity=ARRAY, ishape=ARRAY, fshape=ARRAY, fpool=ARRAY, ipool=ARRAY)
+
+#: A hash grid's counting sort (neighbors/hash_grid.py), for kernels that query it: the
+#: table's bucket count and bits per axis, each bucket's first entry (`starts`), the particle
+#: of each entry (`entries`) and a copy of positions and radii in entry order (`sorted_xr`).
+#: (Its cell size travels beside it as the float `inv_cell`.)
+GridArgs = ti.types.argpack(n_buckets=ti.i32, bits=ti.types.vector(3, ti.i32), starts=ARRAY, entries=ARRAY,
+                            sorted_xr=ARRAY)
+
+#: Neighbour lists: particle i's neighbours in row i of `neighbours`, `neighbour_count[i]` of them.
+ListArgs = ti.types.argpack(neighbours=TABLE, neighbour_count=ARRAY)
+
+#: The pack a kernel gets for a feature it was compiled without (Taichi kernels have fixed
+#: signatures; the feature's arrays are then not passed at all).
+Unused = ti.types.argpack(unused=ti.i32)
+
+_unused = {}
+
+
+def unused() -> "Unused":
+    """The Unused pack of the running Taichi runtime."""
+    generation = runtime.ensure_init().generation
+    if generation not in _unused:
+        _unused.clear()
+        _unused[generation] = Unused(unused=0)
+    return _unused[generation]

@@ -1,0 +1,292 @@
+"""Finding the pairs: the hash grid against brute force (negative coordinates, far
+outliers, forward lists, the prefix sum over many blocks), the store kept in cell order,
+and Verlet lists (skin > 0) kept between substeps, for impulses and for DEM pairs."""
+
+import numpy as np
+import pytest
+
+import tai_coll as tc
+from tai_coll.neighbors import HashGrid
+from conftest import (add_box_of_planes, assert_stack_rests_in_contact, crowded_particle, grid_of, on_device,
+                      pile_scene, spring_law_velocities)
+
+
+# ---------------------------------------------------------------- the hash grid against brute force
+@pytest.mark.parametrize("forward", [False, True])
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (-37.3, -5.0, -12.9)])
+def test_hash_grid_matches_brute_force(offset, forward):
+    rng = np.random.default_rng(3)
+    n = 600
+    x = rng.uniform(-0.3, 0.3, (n, 3)) + np.array(offset)
+    x[:5] += [1e3, -2e3, 5e2]  # far outside the others' bounds
+    radius = rng.uniform(0.01, 0.03, n)
+    margin = 0.005
+    grid = grid_of(x, radius, margin, forward)
+    lists = grid.neighbour_lists(n)  # from forward lists: each pair put in both particles' lists
+    d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    reach = radius[:, None] + radius[None, :] + margin
+    touching = grid.touching.to_numpy()[:n]
+    contact = radius[:, None] + radius[None, :]
+    for i in range(n):
+        expected = np.flatnonzero((d[i] < reach[i]) & (np.arange(n) != i))
+        assert np.array_equal(lists[i], expected), i
+        if not forward:
+            assert touching[i] == np.count_nonzero((d[i] < contact[i]) & (np.arange(n) != i)), i
+    if forward:  # each pair listed once, by the particle sorted first
+        counts = grid.neighbour_count.to_numpy()[:n]
+        table = grid.neighbours.to_numpy()[:n]
+        slot_of = np.empty(n, int)
+        slot_of[grid.entries.to_numpy()[:n]] = np.arange(n)
+        for i in range(n):
+            assert np.all(slot_of[table[i, : counts[i]]] > slot_of[i]), i
+        assert counts.sum() == sum(len(row) for row in lists) // 2
+    assert grid.dropped() == 0
+
+
+def test_grid_entries_order_every_particle():
+    # Particles no longer simulated sit after the simulated ones, in a bucket no query visits.
+    rng = np.random.default_rng(4)
+    n = 300
+    x = rng.uniform(-0.2, 0.2, (n, 3))
+    status = (rng.uniform(size=n) < 0.2).astype(np.int32)
+    xs, rs, flags = on_device(x), on_device(np.full(n, 0.02)), on_device(status)
+    grid = HashGrid()
+    grid.sort(xs, rs, flags, n, 0.04)
+    n_buckets = grid.n_buckets
+    entries = grid.entries.to_numpy()[:n]
+    active = int(grid.starts.to_numpy()[n_buckets])
+    assert np.array_equal(np.sort(entries), np.arange(n))
+    assert active == np.count_nonzero(status == 0)
+    assert np.all(status[entries[:active]] == 0) and np.all(status[entries[active:]] != 0)
+    grid.build(xs, rs, flags, n, 0.05, 0.01)
+    lists = grid.neighbour_lists(n)
+    assert all(np.all(status[lst] == 0) for lst in lists)
+
+
+def test_grid_sort_on_a_table_of_many_scan_blocks():
+    # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum (its serial middle
+    # phase included). starts is the exclusive prefix sum of counts, each bucket's entries are
+    # its particles in increasing order, and sorted_xr holds their positions and radii.
+    from tai_coll.sorting import SCAN_BLOCK
+
+    rng = np.random.default_rng(5)
+    n = 20_000
+    x = rng.uniform(-1.0, 1.0, (n, 3))
+    xs, rs, flags = on_device(x), on_device(np.full(n, 0.01)), on_device(np.zeros(n, int))
+    grid = HashGrid()
+    grid.sort(xs, rs, flags, n, 0.03)
+    n_buckets, inv_cell, bits = grid.n_buckets, grid.inv_cell, grid.bits
+    assert n_buckets // SCAN_BLOCK >= 32
+    counts = grid.counts.to_numpy()[: n_buckets + 1]
+    starts = grid.starts.to_numpy()[: n_buckets + 2]
+    assert np.array_equal(starts[: n_buckets + 1], np.concatenate([[0], np.cumsum(counts)[:-1]]))
+    assert starts[n_buckets] == n and counts[n_buckets] == 0
+    cell = np.floor(x * inv_cell).astype(np.int64)
+    mask = (1 << np.array(list(bits))) - 1
+    bucket = ((cell[:, 0] & mask[0]) | ((cell[:, 1] & mask[1]) << bits[0])
+              | ((cell[:, 2] & mask[2]) << (bits[0] + bits[1])))
+    entries = grid.entries.to_numpy()[:n]
+    order = np.lexsort((np.arange(n), bucket))  # by bucket, then by index
+    assert np.array_equal(entries, order)
+    assert np.allclose(grid.sorted_xr.to_numpy()[:n], np.hstack([x[order], np.full((n, 1), 0.01)]))
+
+
+def test_particle_overlap_matches_brute_force():
+    # The statistics come straight from the sorted grid: every overlapping pair, relative to
+    # the smaller radius, counted once; mixed radii and negative coordinates.
+    rng = np.random.default_rng(8)
+    n = 400
+    x = rng.uniform(-0.25, 0.25, (n, 3)) - [4.0, 0.5, 7.0]
+    radius = rng.uniform(0.01, 0.04, n)
+    scene = tc.Scene()
+    scene.enable_particle_collisions()
+    scene.add_particles(positions=x, radius=radius)
+    stats = scene.particle_overlap()
+    dist = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    i, j = np.triu_indices(n, 1)
+    rel = (radius[i] + radius[j] - dist[i, j]) / np.minimum(radius[i], radius[j])
+    rel = rel[rel > 0]
+    assert stats["pairs"] == len(rel) > 50
+    assert stats["max"] == pytest.approx(rel.max(), rel=1e-5)
+    assert stats["mean"] == pytest.approx(rel.mean(), rel=1e-5)
+
+
+def test_full_neighbour_lists_are_warned_about_once():
+    # One particle ten times larger stretches everyone's reach (margin x the largest radius):
+    # a cluster of small ones on a 1.05 mm lattice sees about 150 others within reach.
+    import warnings
+
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=2)
+    pairs = scene.enable_particle_collisions()
+    g = 0.0105 * np.arange(8)
+    X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
+    scene.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=0.005)
+    scene.add_particles(positions=[[5.0, 0.0, 0.0]], radius=0.1)
+    with pytest.warns(RuntimeWarning, match=r"neighbour lists were full .* more than 48 others"):
+        scene.step()
+    dropped = pairs.neighbour_overflow
+    assert dropped > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene.step()  # once per scene
+    assert pairs.neighbour_overflow > dropped
+    # radii of one size: no list is full, nothing to warn about
+    calm = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=2)
+    calm.enable_particle_collisions()
+    calm.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=0.005)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        calm.step()
+
+
+# ---------------------------------------------------------------- the store in cell order
+def test_reordering_keeps_the_public_order():
+    # The pair solver puts the store in cell order; what the scene reads and writes is
+    # still in the order the particles were added, and the physics is the same (with Jacobi
+    # passes, whose result does not depend on the order of the particles).
+    rng = np.random.default_rng(7)
+    n = 400
+    x = rng.uniform([-0.1, 0.01, -0.1], [0.1, 0.3, 0.1], (n, 3))
+    mass = rng.uniform(1.0, 2.0, n)
+    radius = rng.uniform(0.008, 0.012, n)
+    runs = {}
+    for reorder in (False, True):
+        scene, _ = pile_scene(reorder=reorder, method="jacobi")
+        scene.add_particles(positions=x, mass=mass, radius=radius)
+        scene.step(20)
+        runs[reorder] = scene
+    ids = runs[True]._particles._public()
+    assert ids is not None and not np.array_equal(ids, np.arange(n))  # the store was permuted
+    assert runs[False]._particles._public() is None
+    assert np.array_equal(runs[True].masses(), runs[False].masses())
+    assert np.array_equal(runs[True].radii(), runs[False].radii())
+    # the same physics: only the order of each particle's sum over neighbours differs
+    assert np.allclose(runs[True].positions(), runs[False].positions(), atol=1e-9)
+    assert np.allclose(runs[True].velocities(), runs[False].velocities(), atol=1e-6)
+    # writes and appends in public order
+    scene = runs[True]
+    v = rng.normal(size=(n, 3))
+    scene.set_velocities(v)
+    assert np.array_equal(scene.velocities(), v)
+    extra = np.array([[0.5, 0.5, 0.5], [0.6, 0.5, 0.5]])
+    scene.add_particles(positions=extra, radius=0.01)
+    assert np.array_equal(scene.positions()[n:], extra)
+    assert np.array_equal(scene.velocities()[:n], v)
+    assert np.array_equal(scene.radii()[:n], radius)
+    scene.step(1)
+    assert np.all(scene.particle_status() == "active")
+
+
+def test_store_permute_moves_every_quantity():
+    from tai_coll.scene.particles import ParticleStore
+    import taichi as ti
+
+    rng = np.random.default_rng(2)
+    n = 50
+    store = ParticleStore(capacity=64)
+    x, v = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    mass, radius = rng.uniform(1, 2, n), rng.uniform(0.1, 0.2, n)
+    store.add(x, v, mass, radius)
+    store.clearance.from_numpy(np.arange(64, dtype=store.clearance.to_numpy().dtype))
+    order = rng.permutation(n)
+    perm = ti.ndarray(ti.i32, shape=n)
+    perm.from_numpy(order.astype(np.int32))
+    store.permute(perm, n)
+    assert np.array_equal(store.x.to_numpy()[:n], x[order])  # slot k holds what slot order[k] held
+    assert np.array_equal(store.clearance.to_numpy()[:n], order)
+    for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius)):
+        assert np.array_equal(store.read(name), values), name
+    store.add(x[:30], v[:30], mass[:30], radius[:30])  # grows past the capacity: order reset
+    assert store._public() is None
+    assert np.array_equal(store.read("x"), np.concatenate([x, x[:30]]))
+    with pytest.raises(ValueError, match="n must be"):
+        store.permute(perm, n - 1)
+
+
+# ---------------------------------------------------------------- Verlet lists (skin > 0)
+def test_head_on_with_lists_kept_between_substeps():
+    # Verlet lists (skin > 0): rebuilt only when a particle has moved skin / 2 since the
+    # last build; the pair approaching at 2 m/s is still caught and follows the textbook law.
+    ma, mb, va, vb, e = 1.0, 3.0, 1.0, -1.0, 0.5
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=10)
+    pairs = scene.enable_particle_collisions(material=tc.Material(restitution=e), verlet_skin=0.025)
+    scene.add_particles(positions=[[-0.1, 0, 0], [0.1, 0, 0]], velocities=[[va, 0, 0], [vb, 0, 0]],
+                        mass=np.array([ma, mb]), radius=0.05)
+    scene.step(150)
+    v = scene.velocities()
+    assert v[0, 0] == pytest.approx((ma * va + mb * vb - mb * e * (va - vb)) / (ma + mb), rel=0.01)
+    assert v[1, 0] == pytest.approx((ma * va + mb * vb + ma * e * (va - vb)) / (ma + mb), rel=0.01)
+    assert np.allclose(ma * v[0] + mb * v[1], [ma * va + mb * vb, 0, 0], atol=1e-12)
+    # each moves 0.1 mm a substep: a rebuild every 62 substeps or so (skin / 2 = 12.5 mm)
+    # until they meet, a few while they touch and part
+    assert 10 <= pairs.list_builds < 200
+
+
+def test_resting_stack_keeps_its_lists():
+    r = 0.01
+    scene, pairs = pile_scene(verlet_skin=0.5 * r)
+    scene.add_particles(positions=[[0, r + k * 2.05 * r, 0] for k in range(10)], radius=r)
+    scene.step(60)
+    builds = pairs.list_builds
+    scene.step(40)
+    assert pairs.list_builds == builds  # at rest: 200 substeps on the same lists
+    assert_stack_rests_in_contact(scene, r, 10)
+    # a write from the host drops the lists: the stack moved sideways is listed anew
+    builds = pairs.list_builds  # (particle_overlap sorted the grid anew: the lists were rebuilt)
+    scene.set_positions(scene.positions() + [0.5, 0.0, 0.0])
+    scene.step(1)
+    assert pairs.list_builds == builds + 1
+    assert_stack_rests_in_contact(scene, r, 10)
+
+
+def dem_box_pile(skin, springs, spin):
+    """125 particles (r = 10 mm) on a jittered lattice with random velocities in a box of
+    planes: DEM pairs (200 Hz), 0.03 s of collisions, contacts forming and ending; skin: the
+    Verlet lists' (m)."""
+    r, half = 0.01, 0.06
+    scene = tc.Scene(dt=1e-4, substeps=10, solver=tc.PenaltySolver(hertz=200.0, spin=spin))
+    material = tc.Material(restitution=0.2, friction=0.4, rolling_friction=0.1 if spin else 0.0)
+    add_box_of_planes(scene, half, material)
+    pairs = scene.enable_particle_collisions(material=material, tangential_springs=springs, verlet_skin=skin)
+    g = np.arange(-half + 1.5 * r, half - 1.4 * r, 2.2 * r)
+    X, Y, Z = np.meshgrid(g, r + 2.2 * r * np.arange(5), g, indexing="ij")
+    x = np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1)
+    rng = np.random.default_rng(3)
+    scene.add_particles(positions=x + rng.uniform(-0.1 * r, 0.1 * r, x.shape),
+                        velocities=rng.normal(0.0, 0.2, x.shape), radius=r)
+    scene.step(30)
+    return scene, pairs
+
+
+@pytest.mark.parametrize("springs, spin", [(False, False), (True, True)])
+def test_dem_lists_find_the_contacts_the_grid_finds(springs, spin):
+    # The DEM kernel reading Verlet lists (skin > 0: built from the grid, kept until some
+    # particle has moved skin / 2) against the kernel querying the grid sorted every substep:
+    # the same contacts, so the same motion (to round-off: only the order the forces are summed
+    # in differs). Measured: positions 1e-17, velocities 3e-16, spins 5e-15.
+    grid, _ = dem_box_pile(0.0, springs, spin)
+    listed, pairs = dem_box_pile(0.003, springs, spin)
+    assert grid.particle_overlap()["pairs"] > 10  # contacts at the end, many more on the way
+    assert 2 <= pairs.list_builds < 100  # of 300 substeps
+    assert np.allclose(listed.positions(), grid.positions(), rtol=0.0, atol=1e-12)
+    assert np.allclose(listed.velocities(), grid.velocities(), rtol=0.0, atol=1e-10)
+    assert np.allclose(listed.angular_velocities(), grid.angular_velocities(), rtol=0.0, atol=1e-9)
+
+
+def test_dem_lists_too_full_fall_back_to_the_grid():
+    # A particle with more neighbours than the lists keep (60 > NEIGHBOUR_CAPACITY): the DEM
+    # kernel queries the grid instead until the lists are built again, and every contact
+    # acts (one substep from rest, no gravity: v = dt/m sum of k overlap n).
+    from tai_coll.neighbors.hash_grid import NEIGHBOUR_CAPACITY
+
+    k, dt, count = 3e3, 1e-5, 60
+    assert count > NEIGHBOUR_CAPACITY
+    x, radius, mass = crowded_particle(count, 8)
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1, solver=tc.PenaltySolver(stiffness=k, damping=0.0))
+    pairs = scene.enable_particle_collisions(material=tc.Material(friction=0.5), verlet_skin=0.1 * radius.max())
+    scene.add_particles(positions=x, radius=radius, mass=mass)
+    scene.step(1)
+    assert pairs.grid.dropped() > 0 and pairs.list_builds == 1
+    expected, touching = spring_law_velocities(x, radius, mass, k, dt)
+    assert touching[0].sum() == count
+    assert np.allclose(scene.velocities(), expected, rtol=1e-4, atol=1e-9 * np.abs(expected).max())

@@ -1,0 +1,332 @@
+"""Particles hitting particles with impulses (docs/physics.md 2, two movable bodies), by closed
+form: two-body laws, stacks and piles, the Gauss-Seidel and Jacobi passes, the projection
+and the settle pass."""
+
+import numpy as np
+import pytest
+
+import tai_coll as tc
+from tai_coll.solvers.pairs import gauss_seidel
+from conftest import FLOOR, assert_stack_rests_in_contact, grid_of, on_device, pile_scene
+
+
+# ---------------------------------------------------------------- two bodies
+def pair_scene(*, restitution, friction=0.0, dt=1e-4, substeps=10, **options):
+    """Impulse pairs without gravity; options: those of enable_particle_collisions."""
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=substeps)
+    scene.enable_particle_collisions(material=tc.Material(restitution=restitution, friction=friction), **options)
+    return scene
+
+
+def test_head_on_masses_one_and_three():
+    # Textbook: v_a' = (m_a v_a + m_b v_b - m_b e (v_a - v_b)) / (m_a + m_b), and for b swap.
+    ma, mb, va, vb, e = 1.0, 3.0, 1.0, -1.0, 0.5
+    scene = pair_scene(restitution=e)
+    scene.add_particles(positions=[[-0.1, 0, 0], [0.1, 0, 0]], velocities=[[va, 0, 0], [vb, 0, 0]],
+                        mass=np.array([ma, mb]), radius=0.05)
+    scene.step(150)
+    v = scene.velocities()
+    expected_a = (ma * va + mb * vb - mb * e * (va - vb)) / (ma + mb)
+    expected_b = (ma * va + mb * vb + ma * e * (va - vb)) / (ma + mb)
+    assert v[0, 0] == pytest.approx(expected_a, rel=0.01)
+    assert v[1, 0] == pytest.approx(expected_b, rel=0.01)
+    momentum = ma * v[0] + mb * v[1]
+    assert np.allclose(momentum, [ma * va + mb * vb, 0, 0], atol=1e-12)
+
+
+def test_glancing_collision_with_friction_follows_the_pair_law():
+    # Equal masses, impact parameter b: the contact normal makes asin(b / (2r)) with the
+    # x axis. The outcome is the pair law along that normal (tc.collide_pair).
+    r, b, e, mu = 0.05, 0.05, 0.8, 0.2
+    scene = pair_scene(restitution=e, friction=mu, dt=2e-5)
+    scene.add_particles(positions=[[-0.095, b, 0], [0.0, 0.0, 0.0]], velocities=[[2.0, 0, 0], [0, 0, 0]], radius=r)
+    scene.step(60)
+    v = scene.velocities()
+    angle = np.arcsin(b / (2 * r))
+    normal = np.array([-np.cos(angle), np.sin(angle), 0.0])  # from b to a at contact
+    va, vb = tc.collide_pair([2.0, 0, 0], [0, 0, 0], normal, 1.0, 1.0, restitution=e, friction=mu)
+    assert np.allclose(v[0], va, atol=0.02 * 2.0)
+    assert np.allclose(v[1], vb, atol=0.02 * 2.0)
+    assert np.allclose(v.sum(axis=0), [2.0, 0, 0], atol=1e-12)  # momentum, to round-off
+    # friction took tangential speed: b's velocity is not along the normal only
+    assert abs(np.cross(v[1], normal)[2]) > 1e-3
+
+
+def test_newtons_cradle_passes_the_velocity_down_the_row():
+    r, gap = 0.01, 1e-4
+    n = 5
+    scene = pair_scene(restitution=1.0, dt=2e-5)
+    x = np.array([[k * (2 * r + gap), 0, 0] for k in range(n)])
+    v = np.zeros((n, 3))
+    v[0, 0] = 1.0
+    scene.add_particles(positions=x, velocities=v, radius=r)
+    scene.step(100)
+    out = scene.velocities()[:, 0]
+    assert out[-1] == pytest.approx(1.0, rel=0.01)
+    assert np.all(np.abs(out[:-1]) < 0.01)
+    assert out.sum() == pytest.approx(1.0, abs=1e-12)
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_coincident_centres_are_separated_keeping_momentum(method):
+    # Two particles placed at one point (no normal from their centres: pair_normal's fixed
+    # axis): one step separates them to touching, with finite velocities, the momentum and
+    # the centre of mass's motion unchanged (every change split by inverse mass).
+    ma, mb, r = 1.0, 3.0, 0.05
+    va, vb = np.array([0.3, 0.5, 0.0]), np.array([0.0, -0.2, 0.1])
+    scene = pair_scene(restitution=0.5, friction=0.3, dt=1e-3, substeps=5, method=method)
+    scene.add_particles(positions=[[0.1, 0.2, -0.3]] * 2, velocities=[va, vb], mass=np.array([ma, mb]), radius=r)
+    scene.step(1)
+    x, v = scene.positions(), scene.velocities()
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+    assert np.linalg.norm(x[0] - x[1]) >= 2 * r * (1 - 1e-4)
+    assert np.allclose(ma * v[0] + mb * v[1], ma * va + mb * vb, atol=1e-5)
+    centre = (ma * x[0] + mb * x[1]) / (ma + mb)
+    assert np.allclose(centre, np.array([0.1, 0.2, -0.3]) + scene.frame_time * (ma * va + mb * vb) / (ma + mb), atol=1e-5)
+
+
+# ---------------------------------------------------------------- stacks and piles
+def pass_method(method, monkeypatch):
+    """The method to ask for; "gauss-seidel, GPU units": Gauss-Seidel with the units a GPU
+    gets (gauss_seidel.GPU_UNIT_BITS), here on the CPU."""
+    if method == "gauss-seidel, GPU units":
+        monkeypatch.setattr(gauss_seidel, "unit_bits", lambda: gauss_seidel.GPU_UNIT_BITS)
+        return "gauss-seidel"
+    return method
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "gauss-seidel, GPU units", "jacobi"])
+def test_stack_on_a_floor_comes_to_rest(method, monkeypatch):
+    method = pass_method(method, monkeypatch)
+    r = 0.01
+    scene, _ = pile_scene(method=method)
+    scene.add_particles(positions=[[0, r + k * 2.05 * r, 0] for k in range(10)], radius=r)
+    scene.step(100)
+    assert_stack_rests_in_contact(scene, r, 10)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_pile_in_a_box_settles(method):
+    # 10,000 particles dropped into a box of planes: the pile's overlap stays small, no
+    # particle escapes, kinetic energy decays to near zero.
+    r, half = 0.01, 0.25
+    scene, _ = pile_scene(box=half, method=method)
+    rng = np.random.default_rng(0)
+    g = np.arange(-half + 1.5 * r, half - 1.5 * r, 2.3 * r)
+    X, Y, Z = np.meshgrid(g, np.arange(0.02, 3.0, 2.3 * r), g, indexing="ij")
+    x = np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1)
+    x = x[np.argsort(x[:, 1], kind="stable")][:10_000] + rng.uniform(-0.1 * r, 0.1 * r, (10_000, 3))
+    scene.add_particles(positions=x, radius=r)
+    energy = []
+    for _ in range(12):
+        scene.step(25)
+        v = scene.velocities()
+        energy.append(0.5 * float((v * v).sum()))
+    overlap = scene.particle_overlap()
+    x = scene.positions()
+    assert overlap["mean"] < 0.05 and overlap["max"] < 0.20, overlap
+    assert np.all(np.abs(x[:, [0, 2]]) <= half) and x[:, 1].min() >= r * (1 - 1e-3)
+    assert energy[-1] < 1e-3 * max(energy), energy
+    assert np.all(scene.particle_status() == "active")
+
+
+@pytest.mark.parametrize("ground", ["height_field", "triangle_mesh", "mesh_sdf"])
+def test_pile_on_terrain_and_meshes_stays_outside(ground):
+    # Particle-particle collisions together with the other collider kinds: a small heap
+    # poured onto a bowl-shaped terrain, a closed icosphere mesh and its baked grid ends with
+    # no particle inside the ground and little overlap.
+    import trimesh
+
+    r = 0.02
+    if ground == "height_field":
+        x = np.linspace(-0.5, 0.5, 21)
+        X, Z = np.meshgrid(x, x, indexing="ij")
+        shape = tc.HeightField(heights=0.5 * (X ** 2 + Z ** 2), cell_size=0.05, origin=(-0.5, 0.0, -0.5))
+        top = 0.05
+    else:
+        mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.3)
+        shape = (tc.TriangleMesh(mesh) if ground == "triangle_mesh"
+                 else tc.MeshSDF(mesh, resolution=48, cache=False))
+        top = 0.3
+    scene = tc.Scene(dt=1 / 1000, substeps=5)
+    scene.add_collider(shape, material=tc.Material(restitution=0.2, friction=0.5))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.5))
+    g = np.arange(-0.08, 0.081, 2.3 * r)
+    X, Y, Z = np.meshgrid(g, top + 2 * r + 2.3 * r * np.arange(3), g, indexing="ij")
+    scene.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=r)
+    lowest = np.inf
+    for _ in range(20):
+        scene.step(5)
+        lowest = min(lowest, float(shape.signed_distance(scene.positions()).min()))
+    # the mesh grid is trilinear: allow a few percent of a radius on its surface
+    assert lowest > (0.95 if ground == "mesh_sdf" else 0.99) * r
+    assert scene.particle_overlap()["max"] < 0.2
+
+
+def test_pile_sees_the_floor_after_particles_are_moved():
+    # The collider passes skip particles whose kept clearance covers their move; moving the
+    # particles by hand must drop the kept clearances (else they would fall through).
+    scene = tc.Scene(dt=1 / 1000, substeps=5)
+    scene.add_collider(tc.Plane(**FLOOR), material=tc.Material(restitution=0.0))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.0))
+    r = 0.01
+    scene.add_particles(positions=[[0.0, 3.0, 0.0], [0.5, 3.0, 0.0]], radius=r)
+    scene.step(2)  # clearances of about 3 m are kept
+    scene.set_positions([[0.0, 0.015, 0.0], [0.5, 0.015, 0.0]])
+    scene.set_velocities([[0.0, -4.0, 0.0], [0.0, -4.0, 0.0]])
+    scene.step(5)
+    assert np.all(scene.positions()[:, 1] >= r * (1 - 2e-3)), scene.positions()
+
+
+# ---------------------------------------------------------------- the passes: Gauss-Seidel units, projection, settle
+def gauss_seidel_units(grid, n, unit_bits):
+    """Per particle: the colour (0..7) and the unit (an id) the coloured passes give it with
+    units of unit_bits, recomputed on the host from the grid's buckets (see
+    tai_coll.solvers.pairs.gauss_seidel)."""
+    bits = [int(b) for b in grid.bits]
+    starts = grid.starts.to_numpy()
+    active = int(starts[grid.n_buckets])
+    bucket = np.repeat(np.arange(grid.n_buckets), np.diff(starts[: grid.n_buckets + 1]))
+    coords = np.stack([bucket & ((1 << bits[0]) - 1), (bucket >> bits[0]) & ((1 << bits[1]) - 1),
+                       bucket >> (bits[0] + bits[1])], 1)
+    unit = coords >> np.array(unit_bits)
+    colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
+    unit_id = unit[:, 0] + (unit[:, 1] << 16) + (unit[:, 2] << 32)
+    entries = grid.entries.to_numpy()[:active]
+    per_colour, per_unit = np.full(n, -1), np.full(n, -1)
+    per_colour[entries], per_unit[entries] = colour, unit_id
+    return per_colour, per_unit
+
+
+@pytest.mark.parametrize("unit_bits", [gauss_seidel.CPU_UNIT_BITS, gauss_seidel.GPU_UNIT_BITS], ids=["cpu", "gpu"])
+@pytest.mark.parametrize("spread", [0.3, 40.0])
+def test_gauss_seidel_units_of_a_colour_share_no_particle(spread, unit_bits):
+    # The coloured passes resolve the units of one colour at the same time: what one unit's
+    # pairs touch (its particles and their listed neighbours) must not meet what another's
+    # touch. 30 dense clusters, close together or spread over many table widths (wrap-around);
+    # the units of the CPU and of GPUs.
+    rng = np.random.default_rng(11)
+    n = 3000
+    clusters = rng.uniform(-spread, spread, (30, 3)) - [3.1, 0.2, -7.7]
+    x = clusters[np.arange(n) % 30] + rng.uniform(-0.12, 0.12, (n, 3))
+    radius = rng.uniform(0.01, 0.02, n)
+    grid = grid_of(x, radius, 0.005, forward=True)
+    colour, unit = gauss_seidel_units(grid, n, unit_bits)
+    assert np.all(colour >= 0)
+    counts = grid.neighbour_count.to_numpy()[:n]
+    table = grid.neighbours.to_numpy()[:n]
+    owner = np.repeat(np.arange(n), counts)
+    listed = np.concatenate([table[i, : counts[i]] for i in range(n)])
+    assert len(listed) > n // 2  # pairs enough to mean something
+    # (particle touched, colour, unit) for the owners and for the neighbours they list
+    touched = np.concatenate([np.arange(n), listed])
+    by = np.concatenate([np.arange(n), owner])
+    records = np.unique(np.stack([touched, colour[by], unit[by]], 1), axis=0)
+    # at most one unit of each colour touches any particle
+    pairs = np.unique(records[:, :2], axis=0)
+    assert len(pairs) == len(records)
+
+
+@pytest.mark.parametrize("method, relaxation", [("gauss-seidel", None), ("gauss-seidel", 0.8),
+                                                ("gauss-seidel, GPU units", None), ("jacobi", None)])
+def test_one_projection_pass_separates_every_isolated_pair(method, relaxation, monkeypatch):
+    # Overlapping pairs at rest, far apart from each other and spread over many widths of the
+    # grid's table: no contact pass has anything to do, and one projection pass must take away
+    # the relaxation's share of every pair's overlap (a unit the coloured pass skipped would
+    # leave its pair as it was): all of it with Gauss-Seidel's default (1) and with Jacobi's
+    # over-relaxation (an isolated pair's share is capped at 1), 0.8 of it under-relaxed,
+    # split by inverse mass: each pair's centre of mass stays put. Also with the units a GPU
+    # gets, run here on the CPU.
+    method = pass_method(method, monkeypatch)
+    rng = np.random.default_rng(5)
+    pairs, r = 400, 0.01
+    centres = rng.uniform(-30.0, 30.0, (pairs, 3)) + [0.0, 40.0, 0.0]
+    axis = rng.normal(size=(pairs, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    gap = rng.uniform(1.0, 1.9, pairs) * r  # overlaps of 5 % to 50 %
+    x = np.concatenate([centres + 0.5 * gap[:, None] * axis, centres - 0.5 * gap[:, None] * axis])
+    mass = rng.uniform(1.0, 3.0, 2 * pairs)
+    scene = tc.Scene(dt=1 / 1000, substeps=1, gravity=(0.0, 0.0, 0.0))
+    settings = scene.enable_particle_collisions(material=tc.Material(restitution=0.0, friction=0.0), method=method,
+                                                projection_iterations=1, relaxation=relaxation)
+    share = min(1.0, settings.relaxation)
+    assert share == (1.0 if relaxation is None else relaxation)
+    scene.add_particles(positions=x, radius=r, mass=mass)
+    scene.step(1)
+    y = scene.positions()
+    a, b = y[:pairs], y[pairs:]
+    assert np.allclose(np.linalg.norm(a - b, axis=1), gap + share * (2 * r - gap), rtol=1e-4)
+    before = (mass[:pairs, None] * x[:pairs] + mass[pairs:, None] * x[pairs:]) / (mass[:pairs] + mass[pairs:])[:, None]
+    after = (mass[:pairs, None] * a + mass[pairs:, None] * b) / (mass[:pairs] + mass[pairs:])[:, None]
+    assert np.allclose(after, before, atol=1e-5 * r)
+
+
+def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
+    # Gauss-Seidel's last pass: the law (here e = 0, no friction) on pairs touching at the
+    # final positions (up to SETTLE_TOUCH beyond r_i + r_j, what a projection leaves):
+    # isolated touching pairs that approach stop approaching, with momentum conserved;
+    # separating pairs and pairs just out of touch keep their velocities; nothing moves.
+    from tai_coll import runtime
+    from tai_coll.response.laws import WET_LINEAR
+    from tai_coll.types import ParticleArgs
+
+    rng = np.random.default_rng(4)
+    pairs, r = 300, 0.01
+    centres = rng.uniform(-20.0, 20.0, (pairs, 3))
+    axis = rng.normal(size=(pairs, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    kind = np.arange(pairs) % 3  # 0: touching, approaching; 1: touching, separating; 2: just apart
+    distance = np.where(kind == 2, 2 * r * 1.01, 2 * r * (1 + 0.5 * gauss_seidel.SETTLE_TOUCH))
+    x = np.concatenate([centres + 0.5 * distance[:, None] * axis, centres - 0.5 * distance[:, None] * axis])
+    closing = np.where(kind == 1, 1.0, -1.0)[:, None] * rng.uniform(0.01, 0.5, (pairs, 1)) * axis
+    tangential = rng.normal(scale=0.1, size=(pairs, 3))
+    v = np.concatenate([closing + tangential, -closing + tangential])  # a's velocity minus b's: 2 closing
+    mass = rng.uniform(1.0, 3.0, 2 * pairs)
+    n = 2 * pairs
+    grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
+    dtype = runtime.float_dtype()
+    x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
+    particles = ParticleArgs(count=n, x=on_device(x), v=on_device(v), mass=on_device(mass),
+                             radius=on_device(np.full(n, r)), flags=on_device(np.zeros(n, int)),
+                             stats=on_device(np.zeros(4, int)))
+    law = dict(restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=WET_LINEAR)
+    gauss_seidel.settle_pass(particles, grid.args, grid.lists, law, 1e-3, changed, x1, v1)
+    after = v1.to_numpy().astype(float)
+    assert np.array_equal(x1.to_numpy(), x.astype(dtype))  # nothing moved
+    assert changed[0] == 1
+    eps = 1e-5 if dtype == np.float32 else 1e-12
+    momentum = mass[:pairs, None] * v[:pairs] + mass[pairs:, None] * v[pairs:]
+    assert np.allclose(mass[:pairs, None] * after[:pairs] + mass[pairs:, None] * after[pairs:], momentum, atol=eps)
+    normal_rel = np.sum((after[:pairs] - after[pairs:]) * axis, axis=1)
+    stopped = kind == 0
+    assert np.all(np.abs(normal_rel[stopped]) < eps)
+    assert np.allclose(after[np.concatenate([~stopped, ~stopped])], v[np.concatenate([~stopped, ~stopped])], atol=eps)
+    tangent_rel = (after[:pairs] - after[pairs:]) - normal_rel[:, None] * axis
+    assert np.allclose(tangent_rel[stopped], 0.0, atol=eps)  # (both particles share the tangential velocity)
+
+
+# ---------------------------------------------------------------- configuration
+def test_particle_collisions_need_a_material():
+    scene = tc.Scene()
+    with pytest.raises(TypeError, match="material"):
+        scene.enable_particle_collisions(material=0.5)
+    with pytest.raises(ValueError, match="iterations"):
+        scene.enable_particle_collisions(iterations=0)
+    with pytest.raises(ValueError, match="method must be one of 'gauss-seidel', 'jacobi'; got 'sor'"):
+        scene.enable_particle_collisions(method="sor")
+    with pytest.raises(ValueError, match="relaxation"):
+        scene.enable_particle_collisions(method="jacobi", relaxation=2.5)
+    defaults = scene.enable_particle_collisions(method="jacobi")
+    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (4, 4, 1.5)
+    defaults = scene.enable_particle_collisions()
+    assert defaults.method == "gauss-seidel"
+    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (1, 2, 1.0)
+    assert not defaults.tangential_springs
+    with pytest.raises(ValueError, match="tangential_springs: DEM pairs only"):
+        scene.enable_particle_collisions(tangential_springs=True)  # an impulse scene
+    dem = tc.Scene(solver=tc.PenaltySolver(hertz=100.0))
+    with pytest.raises(TypeError, match="tangential_springs must be True or False"):
+        dem.enable_particle_collisions(tangential_springs="yes")
+    with pytest.raises(ValueError, match="tangential_ratio"):
+        dem.enable_particle_collisions(tangential_springs=True, tangential_ratio=0.0)
