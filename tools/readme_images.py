@@ -4,8 +4,8 @@
     python tools/readme_images.py bouncing_balls moving_paddle --size 320x180
 
 Each scene script runs for its FRAMES (or 60) on the CPU; frames at one sixth, one half and
-the end of the run go into docs/images/NAME.png (git-ignored: renders are never committed,
-so the README's images exist once this has run).
+the end of the run go into docs/images/NAME.png: the README's gallery, a few small strips
+kept in git (every other render goes to ignored folders).
 """
 
 import argparse
