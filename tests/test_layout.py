@@ -212,3 +212,17 @@ def test_a_users_pytest_run_of_scenes_shows_no_syntax_warning(tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "SyntaxWarning" not in done.stdout + done.stderr
+
+
+def test_the_readmes_scene_runs_clean():
+    # The README's first scene, as a user pastes it: no particle starts inside a collider,
+    # none needs the failsafe, none is lost, and they come to rest on the floor.
+    readme = (ROOT / "README.md").read_text()
+    code = re.search(r"```python\n(.*?)```", readme, flags=re.S).group(1)
+    code = code.replace('tc.init(arch="cpu")', "pass")  # the session's runtime (conftest)
+    namespace = {}
+    exec(compile(code, "README.md", "exec"), namespace)
+    scene = namespace["scene"]
+    assert scene.stats() == {"failsafe": 0, "repulsion": 0, "non_finite": 0, "left_domain": 0}
+    x = scene.positions()
+    assert x[:, 1].min() > 0.005 * (1 - 1e-3)  # on or above the floor

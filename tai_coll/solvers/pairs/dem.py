@@ -156,14 +156,25 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, kept, carried, part
 
 
 @ti.func
-def _gather(own: vec4, batch: ti.template(), touching, handle, other: vec4, skip):
+def _gather(i, own: vec4, batch: ti.template(), touching, handle, other: vec4, skip, kept, carried, total: vec3,
+            turn: vec3, particles: ti.template(), spin: ti.template(), candidates: ti.template(), ids: ti.template(),
+            springs: ti.template(), law: ti.template(), listed: ti.template(), with_springs: ti.template(),
+            spinning: ti.template()):
     """One candidate neighbour of particle i (at `other`: position and radius; skip: nonzero
     for i itself) into the batch, without branches (which candidates touch is not
-    predictable): written at the batch's end, which only a touching one advances. Returns
-    the batch's new length (FORCE_BATCH: full, to be emptied by _batch_forces)."""
+    predictable): written at the batch's end, which only a touching one advances. A full
+    batch (rare: many small neighbours) is emptied into total and turn by `_batch_forces`.
+    Returns (touching, carried, total, turn)."""
     reach = own.w + other.w
     batch[touching] = handle
-    return touching + ti.cast((skip == 0) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
+    touching += ti.cast((skip == 0) & ((own.xyz - other.xyz).norm_sqr() < reach * reach), ti.i32)
+    if touching == FORCE_BATCH:
+        part, twist, carried = _batch_forces(i, own, batch, touching, kept, carried, particles, spin, candidates,
+                                             ids, springs, law, listed, with_springs, spinning)
+        total += part
+        turn += twist
+        touching = 0
+    return touching, carried, total, turn
 
 
 @functools.cache
@@ -198,14 +209,9 @@ def dem_force_kernel(precision: str, listed: bool, with_springs: bool, spinning:
                         kept = springs.held[i]
                     for e in range(candidates.neighbour_count[i]):
                         j = candidates.neighbours[i, e]
-                        touching = _gather(own, batch, touching, j, vec4(particles.x[j], particles.radius[j]), 0)
-                        if touching == FORCE_BATCH:
-                            part, twist, carried = _batch_forces(i, own, batch, touching, kept, carried, particles,
-                                                                 spin, candidates, ids, springs, law, listed,
-                                                                 with_springs, spinning)
-                            total += part
-                            turn += twist
-                            touching = 0
+                        touching, carried, total, turn = _gather(
+                            i, own, batch, touching, j, vec4(particles.x[j], particles.radius[j]), 0, kept, carried,
+                            total, turn, particles, spin, candidates, ids, springs, law, listed, with_springs, spinning)
                     part, twist, carried = _batch_forces(i, own, batch, touching, kept, carried, particles, spin,
                                                          candidates, ids, springs, law, listed, with_springs, spinning)
                     total += part
@@ -227,14 +233,9 @@ def dem_force_kernel(precision: str, listed: bool, with_springs: bool, spinning:
                 for q in range(QUERY_RANGES):
                     begin, end = query_range(home, q, candidates.bits, candidates.starts)
                     for k in range(begin, end):
-                        touching = _gather(own, batch, touching, k, candidates.sorted_xr[k], k == slot)
-                        if touching == FORCE_BATCH:
-                            part, twist, carried = _batch_forces(i, own, batch, touching, kept, carried, particles,
-                                                                 spin, candidates, ids, springs, law, listed,
-                                                                 with_springs, spinning)
-                            total += part
-                            turn += twist
-                            touching = 0
+                        touching, carried, total, turn = _gather(
+                            i, own, batch, touching, k, candidates.sorted_xr[k], k == slot, kept, carried, total, turn,
+                            particles, spin, candidates, ids, springs, law, listed, with_springs, spinning)
                 part, twist, carried = _batch_forces(i, own, batch, touching, kept, carried, particles, spin,
                                                      candidates, ids, springs, law, listed, with_springs, spinning)
                 _store_loads(i, total + part, turn + twist, carried, springs, loads, with_springs, spinning)
