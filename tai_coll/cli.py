@@ -279,9 +279,12 @@ def summary(scene, frames, wall, timing, renderer, frame_dir, video_path, fps) -
         lines.append(f"  frames: {frame_dir / FRAME_PATTERN.format(0)} .. {FRAME_PATTERN.format(frames - 1)}")
     if video_path is not None:
         lines.append(f"  video: {video_path} ({frames} frames at {fps:g} fps)")
+    from .types import STAT_NAMES
+
     stats = scene.stats()
-    if any(stats.values()):
-        lines.append("  events: " + ", ".join(f"{k} {v}" for k, v in stats.items()))
+    events = {name: stats[name] for name in STAT_NAMES}
+    if any(events.values()):
+        lines.append("  events: " + ", ".join(f"{k} {v}" for k, v in events.items()))
     return "\n".join(lines)
 
 

@@ -51,7 +51,8 @@ def test_particle_status_and_stats_are_two_different_things():
     scene = falling_row(tc.ImpulseSolver())
     scene.step(2)
     assert list(scene.particle_status()) == ["active"] * 5
-    assert set(scene.stats()) == {"failsafe", "repulsion", "non_finite", "left_domain"}
+    assert set(scene.stats()) == {"failsafe", "repulsion", "non_finite", "left_domain", "substeps", "dt",
+                                  "substep_limit"}
     with pytest.warns(DeprecationWarning, match="particle_status"):
         assert np.array_equal(scene.status(), scene.particle_status())
 

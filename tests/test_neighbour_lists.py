@@ -2,6 +2,8 @@
 outliers, forward lists, the prefix sum over many blocks), the store kept in cell order,
 and Verlet lists (skin > 0) kept between substeps, for impulses and for DEM pairs."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -283,7 +285,9 @@ def test_dem_lists_too_full_fall_back_to_the_grid():
     assert count > NEIGHBOUR_CAPACITY
     x, radius, mass = crowded_particle(count, 8)
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1, solver=tc.PenaltySolver(stiffness=k, damping=0.0))
-    pairs = scene.enable_particle_collisions(material=tc.Material(friction=0.5), verlet_skin=0.1 * radius.max())
+    # (max_push_speed=inf: the law on the overlap these particles are placed with)
+    pairs = scene.enable_particle_collisions(material=tc.Material(friction=0.5), verlet_skin=0.1 * radius.max(),
+                                             max_push_speed=math.inf)
     scene.add_particles(positions=x, radius=radius, mass=mass)
     scene.step(1)
     assert pairs.grid.dropped() > 0 and pairs.list_builds == 1

@@ -3,6 +3,8 @@ the overlap with the pair's reduced mass, the damping ratio's rebound, the force
 crowded particle by brute force, and tangential springs holding a contact where regularised
 friction creeps."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -76,7 +78,9 @@ def test_dem_forces_on_a_crowded_particle_match_the_spring_law(springs):
     x, radius, mass = crowded_particle(40, 5, offset=(3.0, -2.0, 1.0))
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=dt, substeps=1,
                      solver=tc.PenaltySolver(stiffness=k, damping=0.0))
-    settings = scene.enable_particle_collisions(material=tc.Material(friction=0.5), tangential_springs=springs)
+    # (max_push_speed=inf: the law on the overlap these particles are placed with)
+    settings = scene.enable_particle_collisions(material=tc.Material(friction=0.5), tangential_springs=springs,
+                                                max_push_speed=math.inf)
     scene.add_particles(positions=x, radius=radius, mass=mass)
     scene.step(1)
     expected, touching = spring_law_velocities(x, radius, mass, k, dt)

@@ -70,19 +70,42 @@ def test_newtons_cradle_passes_the_velocity_down_the_row():
 @pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
 def test_coincident_centres_are_separated_keeping_momentum(method):
     # Two particles placed at one point (no normal from their centres: pair_normal's fixed
-    # axis): one step separates them to touching, with finite velocities, the momentum and
-    # the centre of mass's motion unchanged (every change split by inverse mass).
+    # axis), moving with one velocity: overlap they start with is not a collision. It goes by
+    # positions only, exactly max_push_speed * dt a substep, and their velocities stay as they
+    # were; the centre of mass moves on with the momentum.
+    ma, mb, r = 1.0, 3.0, 0.05
+    v0 = np.array([0.3, 0.5, -0.1])
+    scene = pair_scene(restitution=0.5, friction=0.3, dt=1e-3, substeps=5, method=method)
+    push = scene.particle_collisions.settings.max_push_speed
+    scene.add_particles(positions=[[0.1, 0.2, -0.3]] * 2, velocities=[v0, v0], mass=np.array([ma, mb]), radius=r)
+    for frame in range(1, 46):
+        scene.step(1)
+        x, v = scene.positions(), scene.velocities()
+        assert np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+        assert np.array_equal(v, [v0, v0])  # no speed from the overlap
+        distance = min(2 * r, frame * scene.substeps * push * scene.dt)
+        assert np.linalg.norm(x[0] - x[1]) == pytest.approx(distance, rel=1e-6)
+        centre = (ma * x[0] + mb * x[1]) / (ma + mb)
+        assert np.allclose(centre, np.array([0.1, 0.2, -0.3]) + scene.time * v0, atol=1e-9)
+    assert np.linalg.norm(x[0] - x[1]) >= 2 * r * (1 - 1e-6)  # touching after 2 r / push
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_coincident_centres_approaching_collide_by_the_pair_law(method):
+    # The same pair with different velocities: the impulses between them are a collision
+    # (momentum kept, no energy gained); the overlap they started with still goes by positions.
     ma, mb, r = 1.0, 3.0, 0.05
     va, vb = np.array([0.3, 0.5, 0.0]), np.array([0.0, -0.2, 0.1])
+    energy = 0.5 * (ma * va @ va + mb * vb @ vb)
     scene = pair_scene(restitution=0.5, friction=0.3, dt=1e-3, substeps=5, method=method)
     scene.add_particles(positions=[[0.1, 0.2, -0.3]] * 2, velocities=[va, vb], mass=np.array([ma, mb]), radius=r)
-    scene.step(1)
-    x, v = scene.positions(), scene.velocities()
-    assert np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+    for _ in range(45):
+        scene.step(1)
+        x, v = scene.positions(), scene.velocities()
+        assert np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+        assert np.allclose(ma * v[0] + mb * v[1], ma * va + mb * vb, atol=1e-9)
+        assert 0.5 * (ma * v[0] @ v[0] + mb * v[1] @ v[1]) <= energy * (1 + 1e-9)
     assert np.linalg.norm(x[0] - x[1]) >= 2 * r * (1 - 1e-4)
-    assert np.allclose(ma * v[0] + mb * v[1], ma * va + mb * vb, atol=1e-5)
-    centre = (ma * x[0] + mb * x[1]) / (ma + mb)
-    assert np.allclose(centre, np.array([0.1, 0.2, -0.3]) + scene.frame_time * (ma * va + mb * vb) / (ma + mb), atol=1e-5)
 
 
 # ---------------------------------------------------------------- stacks and piles

@@ -8,18 +8,19 @@ Kernels take the store's arrays as one argument pack (`args`, types.ParticleArgs
 import numpy as np
 import taichi as ti
 
-from ..types import STAT_NAMES, ParticleArgs, SpinArgs
+from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs
 
-QUANTITIES = ("x", "v", "mass", "radius", "flags")
+QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance")
 
 
 @ti.kernel
 def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
              mass: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(),
-             clearance: ti.types.ndarray(), ids: ti.types.ndarray(),
+             allowance: ti.types.ndarray(), clearance: ti.types.ndarray(), ids: ti.types.ndarray(),
              # outputs: slot k gets what slot order[k] held
              x2: ti.types.ndarray(), v2: ti.types.ndarray(), mass2: ti.types.ndarray(), radius2: ti.types.ndarray(),
-             flags2: ti.types.ndarray(), clearance2: ti.types.ndarray(), ids2: ti.types.ndarray()):
+             flags2: ti.types.ndarray(), allowance2: ti.types.ndarray(), clearance2: ti.types.ndarray(),
+             ids2: ti.types.ndarray()):
     for k in range(n):
         i = order[k]
         x2[k] = x[i]
@@ -27,6 +28,7 @@ def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.
         mass2[k] = mass[i]
         radius2[k] = radius[i]
         flags2[k] = flags[i]
+        allowance2[k] = allowance[i]
         clearance2[k] = clearance[i]
         ids2[k] = ids[i]
 
@@ -39,6 +41,15 @@ def _permute_spin(order: ti.types.ndarray(), n: ti.i32, w: ti.types.ndarray(),
         w2[k] = w[order[k]]
 
 
+@ti.kernel
+def _max_speed_sq(n: ti.i32, v: ti.types.ndarray(), flags: ti.types.ndarray(),
+                  # outputs
+                  largest: ti.types.ndarray()):
+    for i in range(n):
+        if flags[i] == ACTIVE:
+            ti.atomic_max(largest[0], v[i].norm_sqr())
+
+
 def _spin_array(capacity: int):
     """Angular velocities (rad/s) of `capacity` particles, all zero."""
     w = ti.Vector.ndarray(3, float, shape=capacity)
@@ -47,20 +58,25 @@ def _spin_array(capacity: int):
 
 
 def _stored_arrays(capacity: int) -> tuple:
-    """x, v, mass, radius, flags, clearance, ids: every array the store keeps per particle."""
+    """x, v, mass, radius, flags, allowance, clearance, ids: every array the store keeps per
+    particle."""
     return (ti.Vector.ndarray(3, float, shape=capacity), ti.Vector.ndarray(3, float, shape=capacity),
             ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity),
-            ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity))
+            ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity))
 
 
 class ParticleStore:
-    """Positions x (m), velocities v (m/s), mass (kg), radius (m) and a status flag; angular
-    velocities w (rad/s) once a solver that spins particles asks for them (enable_spin)."""
+    """Positions x (m), velocities v (m/s), mass (kg), radius (m), a status flag and an overlap
+    allowance (m: overlap with its neighbours that a particle was given when it was placed,
+    removed by positions at a capped speed, docs/physics.md 5); angular velocities w (rad/s)
+    once a solver that spins particles asks for them (enable_spin)."""
 
     def __init__(self, capacity: int = 1024):
         self.count = 0
         self.capacity = 0
         self.max_radius = 0.0  # kept on the host: the hash grid's cell size needs it every substep
+        self.min_radius = float("inf")  # (Scene's substeps="auto" needs it every frame)
+        self._largest = None  # a one-element work array (max_speed)
         # Kernels count events in a small i32 array; `collect_stats` drains it into Python
         # integers after every frame, so long runs of many particles cannot overflow it.
         self.stats = ti.ndarray(ti.i32, shape=len(STAT_NAMES))
@@ -80,6 +96,9 @@ class ParticleStore:
         # Angular velocities w (rad/s), kept only once a solver that spins particles asks for
         # them (enable_spin): the other solvers treat particles as points.
         self.w = None
+        # The lowest storage slot whose position was written from the host since the pair
+        # solver last gave the written particles their overlap allowances (None: none since).
+        self.placed_from = None
         self._args = None  # the argument packs, built when first asked for (see `args`)
         self._spin_args = None
         self._allocate(max(int(capacity), 1))
@@ -98,7 +117,7 @@ class ParticleStore:
     def _allocate(self, capacity: int):
         old = {name: self.read(name) for name in self._quantities()} if self.count else None
         # ids: the public index of the particle in each slot
-        (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = _stored_arrays(capacity)
+        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids) = _stored_arrays(capacity)
         self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
         self.permuted = False  # whether the storage order may differ from the public order
         self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
@@ -133,14 +152,17 @@ class ParticleStore:
             self._write_range("ids", start, np.arange(start, start + n, dtype=np.int32))
             self._ids_host = None
         for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
-                             ("flags", np.zeros(n, dtype=np.int32))):
+                             ("flags", np.zeros(n, dtype=np.int32)), ("allowance", np.zeros(n))):
             self._write_range(name, start, values)
+        if n:
+            self.placed_from = start if self.placed_from is None else min(self.placed_from, start)
         if self.w is not None:
             self._write_range("w", start, np.zeros_like(x))
         self.count += n
         self._args = None
         if n:
             self.max_radius = max(self.max_radius, float(np.max(radius)))
+            self.min_radius = min(self.min_radius, float(np.min(radius)))
         return slice(start, start + n)
 
     def clearances_hold(self, table) -> bool:
@@ -176,6 +198,8 @@ class ParticleStore:
         if ids is not None:
             values = np.asarray(values)[ids]
         self._write_range(name, 0, values)
+        if name == "x" and self.count:
+            self.placed_from = 0  # every particle was placed anew
 
     def permute(self, order, n: int):
         """Reorder the storage: slot k gets the particle of slot order[k] (order: an ndarray
@@ -185,9 +209,9 @@ class ParticleStore:
             raise ValueError(f"permute: n must be the particle count {self.count}; got {n}")
         if self._spare is None:
             self._spare = _stored_arrays(self.capacity)
-        current = (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids)
+        current = (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids)
         _permute(order, n, *current, *self._spare)
-        (self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids) = self._spare
+        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids) = self._spare
         self._spare = current
         if self.w is not None:
             if self._w_spare is None:
@@ -205,7 +229,7 @@ class ParticleStore:
         arrays or the count change."""
         if self._args is None:
             self._args = ParticleArgs(count=self.count, x=self.x, v=self.v, mass=self.mass, radius=self.radius,
-                                      flags=self.flags, stats=self.stats)
+                                      flags=self.flags, allowance=self.allowance, stats=self.stats)
         return self._args
 
     @property
@@ -225,11 +249,19 @@ class ParticleStore:
     def arrays(self) -> list:
         """Every array the store holds (for memory accounting): the quantities, the second set
         `permute` writes into, and the angular velocities with theirs."""
-        held = [self.x, self.v, self.mass, self.radius, self.flags, self.clearance, self.ids]
+        held = [self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids]
         held += list(self._spare or ())
         if self.w is not None:
             held += [self.w] + ([self._w_spare] if self._w_spare is not None else [])
         return held
+
+    def max_speed(self) -> float:
+        """The fastest active particle's speed (m/s)."""
+        if self._largest is None:
+            self._largest = ti.ndarray(float, shape=1)
+        self._largest.fill(0)
+        _max_speed_sq(self.count, self.v, self.flags, self._largest)
+        return float(self._largest[0]) ** 0.5
 
     def collect_stats(self) -> dict:
         """Move the kernels' event counts into `totals`; returns the counts just collected."""

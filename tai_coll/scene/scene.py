@@ -19,26 +19,34 @@ from ..types import STATUS_NAMES
 from .colliders import ColliderEntry, ColliderTable
 from .motion import make_motion
 from .particles import ParticleStore
+from .stepping import DIVERGED_FACTOR, DIVERGED_SPEED, SubstepChoice
 
 
 class Scene:
     """Particles, the colliders they hit, and how contacts are resolved.
 
     gravity: acceleration in m/s^2 applied to every particle.
-    dt: substep length in seconds (> 0). substeps: substeps per frame (>= 1); one `step()`
-        advances one frame of substeps * dt seconds.
+    dt: substep length in seconds (> 0; default 1/600, or frame_dt / substeps).
+    substeps: substeps per frame (>= 1; default 10): one `step()` advances one frame of
+        substeps * dt seconds. Or "auto": every frame of frame_dt seconds (default 1/60) is cut
+        into as many equal substeps as the scene needs right then (docs/physics.md 3): the
+        solver's stability limit (the stiffest penalty contact's recommended dt, tc.params)
+        and a travel limit (no particle moves more than `cfl` of the smallest radius in a
+        substep, gravity's acceleration included), at most `max_substeps` (default 1000) and no
+        longer than `dt` if given; `stats()` reports each frame's choice.
     solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact);
         `PenaltySolver(...)` resolves them with forces instead.
     domain: optional ((x0, y0, z0), (x1, y1, z1)) box in m. A particle that leaves it is
         frozen where it left and no longer simulated (see `particle_status()`), with a warning.
     """
 
-    def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float = 1.0 / 600.0, substeps: int = 10,
+    def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float | None = None, substeps: int | str = 10,
+                 frame_dt: float | None = None, max_substeps: int | None = None, cfl: float | None = None,
                  solver=None, domain=None):
         self._runtime = runtime.ensure_init()
         gravity = validate.vector3("gravity", gravity)
-        self.dt = validate.real("dt", dt, low=0.0, low_open=True)
-        self.substeps = validate.integer("substeps", substeps, low=1)
+        self._stepping = SubstepChoice.build(dt, substeps, frame_dt, max_substeps, cfl)
+        self.dt, self.substeps = self._stepping.initial
         self.solver = solver if solver is not None else ImpulseSolver()
         if not isinstance(self.solver, Solver):
             raise TypeError(f"solver must be a solver such as tc.ImpulseSolver(); got {type(self.solver).__name__}")
@@ -48,7 +56,11 @@ class Scene:
         # what the solver is handed each call (solvers/base.py)
         self._world = World(particles=self._particles, colliders=self._colliders, gravity=gravity, domain=domain)
         self._pairs = None  # particle-particle collisions, off until enabled
-        self._substep_count = 0
+        self._time_base = 0.0  # time when dt last changed (substeps="auto")
+        self._substep_count = 0  # substeps of dt since then
+        self._substep_limit = "fixed" if not self._stepping.auto else "frame_dt"  # what set dt (stats)
+        self._watch = None  # (speed bound, since when): dt is beyond the stability limit (_check_solver)
+        self._limits = None  # the solver's (recommended dt, stability limit), or None (_check_solver)
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
         self._warned_dropped = False  # whether full neighbour lists were warned about (once)
@@ -116,7 +128,9 @@ class Scene:
             raise ValueError("tangential_springs: DEM pairs only (the scene's solver must be a tc.PenaltySolver; "
                              f"got {type(self.solver).__name__}, whose pair impulses hold statically already)")
         self._pairs = ParticleCollisions(settings)
+        self._world = dataclasses.replace(self._world, pair_contacts=True)
         self._warned_dropped = False
+        self._solver_checked = None  # pair contacts can be the stiffest
         return self._pairs
 
     @property
@@ -144,8 +158,10 @@ class Scene:
         frames = validate.integer("frames", frames, low=0)
         self._check_solver()
         kinematic = self._colliders.has_kinematic
-        world = self._world
         for _ in range(frames):
+            if self._stepping.auto:
+                self._choose_substeps()
+            world = self._world
             if self._pairs is not None and self._particles.count:
                 # Particles interact: every substep is its own sequence of phases.
                 for _ in range(self.substeps):
@@ -172,14 +188,48 @@ class Scene:
         if counts == self._solver_checked:
             return
         self._solver_checked = counts
-        for message in self.solver.check(self._world, self.dt):
-            if message not in self._solver_warned:
-                self._solver_warned.add(message)
-                warnings.warn(message, RuntimeWarning, stacklevel=3)
+        self._limits = self.solver.time_step_limits(self._world)
+        if not self._stepping.auto:  # ("auto" picks a dt within the limits, or warns that it cannot)
+            for message in self.solver.check(self._world, self.dt):
+                self._warn_once(message, stacklevel=4)
+        self._watch_stability()
+
+    def _warn_once(self, message: str, stacklevel: int):
+        if message not in self._solver_warned:
+            self._solver_warned.add(message)
+            warnings.warn(message, RuntimeWarning, stacklevel=stacklevel)
+
+    def _watch_stability(self):
+        """Watch the speeds while dt is beyond the stability limit of the solver's stiffest
+        explicit contact (the run may diverge: _check_health stops it)."""
+        limits = self._limits
+        if limits is None or self.dt <= limits[1]:
+            self._watch = None
+        elif self._watch is None:
+            self._watch = (self._particles.max_speed(), self.time)
+
+    def _choose_substeps(self):
+        """substeps="auto": this frame's substeps (SubstepChoice.choose), dt and what set it."""
+        limits = self._limits
+        speed = self._particles.max_speed() if self.num_particles else 0.0
+        n, limit = self._stepping.choose(None if limits is None else limits[0], speed,
+                                         self._particles.min_radius, float(np.linalg.norm(self.gravity)))
+        if limit == "max_substeps":
+            self._warn_once(f"substeps='auto': this scene needs more than max_substeps = {self._stepping.max_substeps}"
+                            f" substeps a frame at times: frames then take max_substeps substeps of "
+                            f"{self._stepping.frame_dt / n:.3g} s, beyond the scene's limits (see stats()). Raise "
+                            "max_substeps", 5)
+        dt = self._stepping.frame_dt / n
+        if dt != self.dt:
+            self._time_base, self._substep_count, self.dt = self.time, 0, dt
+            self._watch_stability()
+        self.substeps, self._substep_limit = n, limit
 
     def _check_health(self):
         fresh = self._particles.collect_stats()
         totals = self._particles.totals
+        if self._watch is not None:
+            self._check_divergence()
         if fresh["non_finite"]:
             bad = np.flatnonzero(self.particle_status() == "non_finite")
             advice = self.solver.stability_advice(self._world)
@@ -203,6 +253,22 @@ class Scene:
                           f"frozen ({totals['left_domain']} in all); see Scene.particle_status()", RuntimeWarning,
                           stacklevel=3)
 
+    def _check_divergence(self):
+        """dt is beyond the stability limit (see _watch_stability): stop a run whose particles
+        go faster than the speeds they had and gravity's could ever explain (explicit
+        integration past its limit feeds energy into every stiff contact, growing
+        geometrically), with the error that names the dt to use."""
+        start_speed, since = self._watch
+        plausible = start_speed + float(np.linalg.norm(self.gravity)) * (self.time - since)
+        speed = self._particles.max_speed()
+        if speed > DIVERGED_FACTOR * plausible + DIVERGED_SPEED:
+            recommended, limit = self._limits
+            raise SimulationError(
+                f"the run is diverging: a particle moves at {speed:.3g} m/s at t = {self.time:.6g} s, where the "
+                f"starting speeds and gravity explain at most {plausible:.3g} m/s, because dt = {self.dt:.3g} s is "
+                f"beyond the stability limit {limit:.3g} s of the stiffest contact. Use dt <= {recommended:.3g} s "
+                "(or substeps='auto'), or a softer contact")
+
     # ---------------------------------------------------------------- reading
     @property
     def gravity(self) -> np.ndarray:
@@ -221,12 +287,12 @@ class Scene:
     @property
     def time(self) -> float:
         """Seconds simulated."""
-        return self._substep_count * self.dt
+        return self._time_base + self._substep_count * self.dt
 
     @property
     def frame_time(self) -> float:
-        """Seconds per frame: substeps * dt."""
-        return self.substeps * self.dt
+        """Seconds per frame: substeps * dt (frame_dt with substeps="auto")."""
+        return self._stepping.frame_dt if self._stepping.auto else self.substeps * self.dt
 
     @property
     def num_particles(self) -> int:
@@ -269,9 +335,12 @@ class Scene:
         return self.particle_status()
 
     def stats(self) -> dict:
-        """Counts of events since the scene was built: failsafe and repulsion events, particles
-        frozen (non_finite, left_domain)."""
-        return dict(self._particles.totals)
+        """Counts of events since the scene was built (failsafe and repulsion events, particles
+        frozen: non_finite, left_domain), then the latest frame's substeps, its dt (s) and
+        what chose them (substep_limit): "fixed" (the scene's substeps and dt), or with
+        substeps="auto" "stability" (the stiffest contact), "cfl" (the travel limit),
+        "frame_dt" (one substep, or dt's cap), "max_substeps" (capped)."""
+        return dict(self._particles.totals, substeps=self.substeps, dt=self.dt, substep_limit=self._substep_limit)
 
     def set_velocities(self, velocities) -> None:
         v = validate.points("velocities", velocities)

@@ -32,6 +32,7 @@ class World:
     colliders: object
     gravity: np.ndarray
     domain: tuple | None
+    pair_contacts: bool = False  # whether particles collide with each other
 
     def domain_bounds(self) -> tuple:
         """(use_domain, lower corner, upper corner) as kernels take them (corners 0 without)."""
@@ -65,6 +66,11 @@ class Solver(abc.ABC):
     def check(self, world: World, dt: float) -> list[str]:
         """Warnings about the scene as it stands (no warnings by default)."""
         return []
+
+    def time_step_limits(self, world: World) -> tuple | None:
+        """(recommended dt, stability limit) in s of the stiffest contact the solver integrates
+        explicitly: beyond the limit a run diverges (Scene stops it); None: no such limit."""
+        return None
 
     def stability_advice(self, world: World) -> str | None:
         """What to change when a run went non-finite (None: nothing specific)."""

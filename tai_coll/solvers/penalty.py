@@ -281,14 +281,27 @@ class PenaltySolver(Solver):
         return params.contact(mass, self.contact_stiffness(mass), self.contact_damping(mass))
 
     def _stiffest(self, world) -> params.ContactParams | None:
-        """The contact with the smallest characteristic time: the lightest particle's."""
+        """The contact with the smallest characteristic time: the lightest particle's, or with
+        DEM pairs the two lightest particles' (reduced mass m / 2)."""
         if world.particles.count == 0:
             return None
-        return self.contact_params(float(np.min(world.particles.read("mass"))))
+        mass = float(np.min(world.particles.read("mass")))
+        return self.contact_params(0.5 * mass if world.pair_contacts else mass)
+
+    def _explicit(self, world) -> bool:
+        """Whether some contact's spring is integrated explicitly: the colliders' (unless
+        backward Euler) or DEM pairs' (always forces)."""
+        return world.pair_contacts or (self.integrator != "backward_euler" and len(world.colliders) > 0)
+
+    def time_step_limits(self, world) -> tuple | None:
+        if not self._explicit(world):
+            return None
+        contact = self._stiffest(world)
+        return None if contact is None else (contact.recommended_dt, contact.stability_limit)
 
     def check(self, world, dt: float) -> list[str]:
         """Warnings for the scene as it stands (called by Scene before stepping)."""
-        if self.integrator == "backward_euler" or len(world.colliders) == 0:
+        if not self._explicit(world):
             return []
         contact = self._stiffest(world)
         if contact is None or dt <= WARN_FACTOR * contact.recommended_dt:

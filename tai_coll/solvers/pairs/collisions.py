@@ -11,7 +11,10 @@ A substep with impulse pairs (the ImpulseSolver's, `impulse_substep`), in phases
    x1 = x + dt v1 after each, alternating with the colliders' contact passes, so that support
    from a floor reaches the top of a stack within a substep;
 5. projection passes: overlap left after the velocity passes is removed by moving positions
-   apart, split by inverse mass (momentum and the centre of mass unchanged); Gauss-Seidel
+   apart, split by inverse mass (momentum and the centre of mass unchanged), the velocity
+   following for overlap that developed during the substep; overlap that was there at its
+   start while the pair has an overlap allowance (placed overlapping: placement.py) goes by the
+   candidates' positions only, at most max_push_speed * dt a substep; Gauss-Seidel
    then takes a settle pass: the law (with restitution: a pair that comes into contact just
    then still bounces) on the pairs touching at the final positions, positions unchanged,
    so no contact carries approaching velocity into the next substep;
@@ -29,6 +32,8 @@ each other in memory. The settings are a PairSettings (settings.py); this object
 work arrays, the grid, the lists and the springs, and counts what happened.
 """
 
+import math
+
 import taichi as ti
 
 from ... import runtime
@@ -39,6 +44,7 @@ from ...types import unused
 from ..penalty import Forces, ForcesAndTorques
 from . import dem, gauss_seidel, jacobi
 from .overlap import overlap
+from .placement import SHRINK, grant_allowances, shrink_allowances
 from .predict import predict_kernel
 from .settings import PairSettings
 from .springs import SpringHistory
@@ -67,6 +73,7 @@ class ParticleCollisions:
         self._latest_counts = None  # the array with the latest per-particle contact counts (Jacobi)
         self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
         self._law = None  # (key, the DEM law's argument pack)
+        self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -90,6 +97,7 @@ class ParticleCollisions:
         self.torque = None  # DEM pairs of spinning particles (see _loads)
         self._load_args = None
         self.changed = ti.ndarray(ti.i32, shape=1)
+        self._largest = ti.ndarray(float, shape=1)
         self.lists.invalidate()
 
     # ---------------------------------------------------------------- counters
@@ -161,6 +169,7 @@ class ParticleCollisions:
         m = settings.material
         law = dict(restitution=m.restitution, friction=m.friction, wet_friction=m.wet_friction,
                    wet_law=WET_LAWS["linear"])
+        placed = self._place(particles)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         contacts = self._predict_and_list(world, dt, settings.margin_length(r_max), settings.skin_length(r_max))
@@ -179,19 +188,21 @@ class ParticleCollisions:
             if not self._velocity_pass(particles, dt, contact_law, elastic=False):
                 break
             solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=False)
-        # 5. projection passes on positions
-        for _ in range(settings.projection_iterations):
-            if not self._projection_pass(particles, dt):
+        # 5. projection passes on positions (the first also takes up to max_push_speed * dt of the
+        #    overlap there was at the start of the substep, by positions only)
+        for k in range(settings.projection_iterations):
+            if not self._projection_pass(particles, dt, placed, settings.max_push_speed * dt if k == 0 else 0.0):
                 break
         if settings.method == "gauss-seidel":
             # a last velocity pass at the final positions: without it, particles jammed deep in
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
-            gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt, self.changed, self.x1,
-                                     self.v1)
+            gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
+                                     self.changed, self.x1, self.v1)
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = self._counts[0]
+        self._relax(particles, dt)
 
     def _predict_and_list(self, world, dt: float, reach: float, skin: float):
         """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach
@@ -229,8 +240,8 @@ class ParticleCollisions:
         if self.settings.method == "gauss-seidel":
             # the elastic pass is not over-relaxed: an isolated pair bounces with e exactly
             gauss_seidel.velocity_pass(elastic, particles.args, self.grid.args, self.grid.lists, law,
-                                       1.0 if elastic else self.settings.relaxation, dt, self.changed, v_test, self.x1,
-                                       self.v1)
+                                       1.0 if elastic else self.settings.relaxation, dt, self.changed,
+                                       v_test, self.x1, self.v1)
         else:
             jacobi.velocity_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
                                  v_test=v_test, **law, relaxation=self.settings.relaxation, dt=dt,
@@ -238,15 +249,19 @@ class ParticleCollisions:
                                  changed=self.changed, v_start=self.v_start, x1=self.x1, v1=self.v1)
         return self._passed()
 
-    def _projection_pass(self, particles, dt: float) -> bool:
-        """One projection pass; returns whether any pair overlapped."""
+    def _projection_pass(self, particles, dt: float, placed: bool, push_distance: float) -> bool:
+        """One projection pass; placed: overlap allowances are left, and up to push_distance (m)
+        of them goes by positions only. Returns whether any pair had overlap to remove."""
         if self.settings.method == "gauss-seidel":
             gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, self.settings.relaxation, dt,
-                                         self.changed, self.x1, self.v1)
+                                         placed, push_distance, self.changed, self.x1, self.v1)
         else:
+            # (v_start, the elastic pass's copy of v(t), is free once the velocity passes are done)
             jacobi.projection_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
-                                   relaxation=self.settings.relaxation, dt=dt, dx=self.delta,
-                                   contacts_now=self._counts[1], changed=self.changed, x1=self.x1, v1=self.v1)
+                                   relaxation=self.settings.relaxation, dt=dt, placed=placed,
+                                   push_distance=push_distance,
+                                   dx=self.delta, dx_followed=self.v_start, contacts_now=self._counts[1],
+                                   changed=self.changed, x1=self.x1, v1=self.v1)
         return self._passed()
 
     def _changed(self) -> bool:
@@ -260,6 +275,29 @@ class ParticleCollisions:
         if changed and self.settings.method == "jacobi":
             self._counts.reverse()
         return changed
+
+    # ---------------------------------------------------------------- overlap particles were placed with
+    def _place(self, particles) -> bool:
+        """Give particles placed since the last substep (added, or moved by set_positions) their
+        overlap allowances: overlap they were placed with is an error of position, removed at
+        max_push_speed by positions only (impulse pairs) or let into the spring law at that
+        speed (DEM pairs), not a collision (docs/physics.md 5). Returns whether any allowance
+        is left (the passes then take the placed particles' path)."""
+        if particles.placed_from is not None and particles.count and math.isfinite(self.settings.max_push_speed):
+            self._sort(particles, particles.x, 2.0 * particles.max_radius)
+            self.lists.invalidate()  # the sort replaced the buckets the lists came from
+            largest = grant_allowances(self.grid, particles.count, particles.placed_from, particles.allowance,
+                                       self._largest)
+            self._allowance_left = max(self._allowance_left, largest)
+            particles.placed_from = None
+        return self._allowance_left > 0.0
+
+    def _relax(self, particles, dt: float):
+        """At the end of a substep: every allowance shrinks by SHRINK * max_push_speed * dt (a
+        pair's, the sum of its two, by twice that)."""
+        if self._allowance_left > 0.0:
+            amount = SHRINK * self.settings.max_push_speed * dt
+            self._allowance_left = shrink_allowances(particles.count, amount, particles.allowance, self._largest)
 
     # ---------------------------------------------------------------- DEM pairs
     def dem_substep(self, world, solver, dt: float):
@@ -275,6 +313,7 @@ class ParticleCollisions:
         if spinning:
             particles.enable_spin()  # (before the reordering, which moves the spins with the store)
         loads = self._loads(spinning)
+        self._place(particles)
         skin = settings.skin_length(particles.max_radius)
         listed = skin > 0.0 and self._dem_lists(particles, skin)
         if not listed:
@@ -289,6 +328,7 @@ class ParticleCollisions:
         if with_springs:  # this substep's springs are the current ones
             self.springs.swap()
         solver.advance(world, dt, 1, loads=loads)
+        self._relax(particles, dt)
 
     def _loads(self, spinning: bool):
         """The pair forces (and torques, for spinning particles) as one argument pack."""

@@ -92,7 +92,10 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, kept, carried, part
         v_rel = particles.v[i] - particles.v[j]
         vn = v_rel.dot(nrm)
         overlap = own.w + other.w - dist
-        fn = spring_damper(overlap, vn, stiff, damp)
+        # the spring presses only overlap beyond the pair's allowances: overlap a particle was
+        # placed with is let into the law at a capped speed, not released at once (docs/physics.md 5)
+        depth = overlap - (particles.allowance[i] + particles.allowance[j])
+        fn = ti.select(depth > 0.0, spring_damper(depth, vn, stiff, damp), 0.0)
         total += fn * nrm
         vt = v_rel - vn * nrm
         # the mass a tangential force at the contact sees: the reduced mass, 2/7 of it when the

@@ -86,9 +86,10 @@ SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
-def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: ListArgs, particles: ParticleArgs,
+def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: ListArgs,
+          particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
-          dt: float,
+          dt: float, push_distance: float,
           # outputs
           changed: ARRAY,
           # in-out
@@ -101,7 +102,11 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: 
         change added to v_test and to the candidates, v1 += dv, x1 += dt dv. CONTACT (v_test
         is v1, e = 0): v1 += dv, the candidate re-integrated, x1 = x + dt v1.
     PROJECTION: each overlapping pair moved apart along its normal, split by inverse mass,
-        the velocities following the positions (v1 += dx / dt); x and v_test unused.
+        the velocities following the positions (v1 += dx / dt). With placed particles (placed:
+        some overlap allowance is left, see collisions.py), overlap a pair was placed with and
+        still had at the start of the substep moves the candidates only (the start positions x
+        stay, so colliders still see the whole path), by at most push_distance a substep: no
+        particle any speed. v_test unused.
     SETTLE (v_test is v1): the law (with restitution) on the velocities of the pairs touching
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
         the end of the substep carries approaching velocity into the next.
@@ -124,7 +129,13 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: 
                     mi = particles.mass[i]
                     xi = x1[i]
                     vi = v_test[i]  # (projection: unused)
-                    moved = vec3(0.0)  # projection: i's displacement in this pass
+                    moved = vec3(0.0)  # projection: i's displacement in this pass that velocity follows
+                    x_start = vec3(0.0)  # projection of placed particles: i's start position
+                    allowance_i = 0.0  # ... and its overlap allowance
+                    grown = 0.0  # ... and what it grows by in this pass
+                    if ti.static(mode == PROJECTION and placed):
+                        x_start = particles.x[i]
+                        allowance_i = particles.allowance[i]
                     for k in range(lists.neighbour_count[i]):
                         j = lists.neighbours[i, k]
                         xj = x1[j]
@@ -136,13 +147,40 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: 
                                                    or may_approach(vi - v_test[j], d, d2)):
                             nrm, dist = pair_normal(xi, xj, i, j)
                             mj = particles.mass[j]
-                            if ti.static(mode == PROJECTION):
+                            if ti.static(mode == PROJECTION and not placed):
                                 found = 1
                                 move = ((reach - dist) * (relaxation / (mi + mj))) * nrm
                                 xi += mj * move
                                 moved += mj * move
                                 x1[j] = xj - mi * move
                                 v1[j] = v1[j] - (mi / dt) * move
+                            elif ti.static(mode == PROJECTION):
+                                # while a pair has an overlap allowance (one of the two was placed
+                                # overlapping), the overlap it had at the start of the substep (at
+                                # x) is not a collision: it goes by positions only, by at most
+                                # push_distance a substep; what developed since moves the
+                                # velocities too (docs/physics.md 5)
+                                overlap = reach - dist
+                                before = ti.select(allowance_i + particles.allowance[j] > 0.0,
+                                                   ti.max(reach - (x_start - particles.x[j]).norm(), 0.0), 0.0)
+                                separate = overlap - ti.max(before - push_distance, 0.0)
+                                if separate > 0.0:
+                                    found = 1
+                                    move = (separate * (relaxation / (mi + mj))) * nrm
+                                    developed = overlap - before
+                                    push = move
+                                    if developed < separate:
+                                        # the rest moves the candidates only, not the velocities; a
+                                        # particle moved so gets that much allowance, so that overlap
+                                        # it is pushed into counts as placed too
+                                        push = (ti.max(developed, 0.0) * (relaxation / (mi + mj))) * nrm
+                                        shift = move - push
+                                        grown += mj * shift.norm()
+                                        particles.allowance[j] = particles.allowance[j] + mi * shift.norm()
+                                    xi += mj * move
+                                    moved += mj * push
+                                    x1[j] = xj - mi * move
+                                    v1[j] = v1[j] - (mi / dt) * push
                             else:
                                 v_rel = vi - v_test[j]
                                 v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
@@ -162,6 +200,8 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: 
                     x1[i] = xi
                     if ti.static(mode == PROJECTION):
                         v1[i] = v1[i] + moved / dt
+                        if ti.static(placed):
+                            particles.allowance[i] = particles.allowance[i] + grown
                     elif ti.static(mode == ELASTIC):
                         v1[i] = v1[i] + (vi - v_test[i])
                         v_test[i] = vi
@@ -171,24 +211,27 @@ def _pass(mode: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: 
                 changed[0] = 1
 
 
-def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float, changed, v_test,
-                  x1, v1):
+def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float,
+                  changed, v_test, x1, v1):
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
     law with e = 0) over the pairs of the forward lists; see _pass. particles: the store's
     pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
     wet_friction and wet_law by name."""
-    _pass(mode=ELASTIC if elastic else CONTACT, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles,
-          **law, relaxation=relaxation, dt=dt, changed=changed, v_test=v_test, x1=x1, v1=v1)
+    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles,
+          **law, relaxation=relaxation, dt=dt, push_distance=0.0, changed=changed, v_test=v_test,
+          x1=x1, v1=v1)
 
 
 def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1):
     """A velocity pass at the final positions, positions unchanged; see _pass."""
-    _pass(mode=SETTLE, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=1.0,
-          dt=dt, changed=changed, v_test=v1, x1=x1, v1=v1)
+    _pass(mode=SETTLE, placed=False, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=1.0,
+          dt=dt, push_distance=0.0, changed=changed, v_test=v1, x1=x1, v1=v1)
 
 
-def projection_pass(particles, grid, lists, relaxation: float, dt: float, changed, x1, v1):
-    """A projection pass over the pairs of the forward lists; see _pass."""
-    _pass(mode=PROJECTION, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, restitution=0.0,
-          friction=0.0, wet_friction=0.0, wet_law=0, relaxation=relaxation, dt=dt, changed=changed, v_test=v1,
-          x1=x1, v1=v1)
+def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed: bool, push_distance: float,
+                    changed, x1, v1):
+    """A projection pass over the pairs of the forward lists; placed: overlap allowances are
+    left, push_distance (m) of them may go this substep; see _pass."""
+    _pass(mode=PROJECTION, placed=placed, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, restitution=0.0,
+          friction=0.0, wet_friction=0.0, wet_law=0, relaxation=relaxation, dt=dt, push_distance=push_distance,
+          changed=changed, v_test=v1, x1=x1, v1=v1)

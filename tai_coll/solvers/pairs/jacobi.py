@@ -83,21 +83,28 @@ def velocity_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, v_t
 
 @ti.kernel
 def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, relaxation: float, dt: float,
+                    placed: ti.template(), push_distance: float,
                     # outputs
-                    dx: ARRAY, contacts_now: ARRAY, changed: ARRAY,
+                    dx: ARRAY, dx_followed: ARRAY, contacts_now: ARRAY, changed: ARRAY,
                     # in-out
                     x1: ARRAY, v1: ARRAY):
     """One projection pass at the candidates x1, then its result applied. dx_i = sum over
     overlapping neighbours j of particle i's share of moving the pair apart, split by
-    inverse mass; changed[0]: whether some particle overlapped (0: nothing left to project).
-    Applied: x1 += dx, and the velocity follows the position (as in position-based dynamics:
-    a pile held apart by projection is at rest, not moving into its neighbours), v1 += dx / dt."""
+    inverse mass; changed[0]: whether some pair had overlap to remove (0: nothing left to
+    project). Applied: x1 += dx, and the velocity follows the position (as in position-based
+    dynamics: a pile held apart by projection is at rest, not moving into its neighbours),
+    v1 += dx / dt. With placed particles (placed: some overlap allowance is left), overlap a
+    pair was placed with and still had at the start of the substep (at x) moves positions only,
+    the candidates only (the velocity does not follow), by at most push_distance a
+    substep: the velocity follows dx_followed, the rest (docs/physics.md 5)."""
     # the positions a pass reads are those before it: dx is applied in a second loop
     changed[0] = 0
     for i in range(particles.count):
         acc = vec3(0.0, 0.0, 0.0)
+        followed = vec3(0.0, 0.0, 0.0)
         mi = particles.mass[i]
         n_touching = 0
+        separating = 0
         xi = x1[i]
         ri = particles.radius[i]
         for k in range(lists.neighbour_count[i]):  # branch-free, as in velocity_pass
@@ -107,15 +114,36 @@ def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, r
             nrm, dist = pair_normal(xi, xj, i, j)
             overlap = reach - dist
             touching = overlap > 0.0
-            # i's part of the separation: (1/m_i) / (1/m_i + 1/m_j)
-            share = pair_share(contacts, i, j, relaxation) * overlap * particles.mass[j] / (mi + particles.mass[j])
-            acc += ti.select(touching, share, 0.0) * nrm
+            if ti.static(not placed):
+                # i's part of the separation: (1/m_i) / (1/m_i + 1/m_j)
+                share = pair_share(contacts, i, j, relaxation) * overlap * particles.mass[j] / (mi + particles.mass[j])
+                acc += ti.select(touching, share, 0.0) * nrm
+                separating += ti.cast(touching, ti.i32)
+            else:
+                before = ti.select(particles.allowance[i] + particles.allowance[j] > 0.0,
+                                   ti.max(reach - (particles.x[i] - particles.x[j]).norm(), 0.0), 0.0)
+                separate = overlap - ti.max(before - push_distance, 0.0)
+                developed = ti.min(ti.max(overlap - before, 0.0), separate)
+                part = pair_share(contacts, i, j, relaxation) * particles.mass[j] / (mi + particles.mass[j])
+                moving = touching & (separate > 0.0)
+                acc += ti.select(moving, part * separate, 0.0) * nrm
+                followed += ti.select(moving, part * developed, 0.0) * nrm
+                separating += ti.cast(moving, ti.i32)
             n_touching += ti.cast(touching, ti.i32)
         dx[i] = acc
+        if ti.static(placed):
+            dx_followed[i] = followed
         contacts_now[i] = n_touching
-        if n_touching > 0 and changed[0] == 0:
+        if separating > 0 and changed[0] == 0:
             changed[0] = 1
     for i in range(particles.count):
         if changed[0] != 0 and particles.flags[i] == ACTIVE:
             x1[i] += dx[i]
-            v1[i] += dx[i] / dt
+            if ti.static(placed):
+                v1[i] += dx_followed[i] / dt
+                # the rest moves the candidate only; the particle gets that much allowance, so
+                # that overlap it is pushed into counts as placed too
+                shift = dx[i] - dx_followed[i]
+                particles.allowance[i] += shift.norm()
+            else:
+                v1[i] += dx[i] / dt

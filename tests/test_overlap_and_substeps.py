@@ -1,0 +1,212 @@
+"""Overlap a user placed is not a collision (docs/physics.md 5: placement), and substeps chosen
+for the scene (docs/physics.md 3): substeps="auto", and the error that stops a diverging run."""
+
+import warnings
+
+import numpy as np
+import pytest
+import trimesh
+
+import tai_coll as tc
+from tai_coll.solvers.pairs.settings import MAX_PUSH_SPEED
+
+G = 9.81
+R = 0.005
+
+
+def random_cube(n, side, seed=0):
+    return np.random.default_rng(seed).uniform(0.0, side, (n, 3))
+
+
+def pair_options(model, method):
+    """(Scene keyword arguments, enable_particle_collisions keyword arguments) for a model."""
+    if model == "dem":
+        return {"solver": tc.PenaltySolver(hertz=200.0), "substeps": "auto"}, {}
+    return {"dt": 1 / 600, "substeps": 10}, {"method": method}
+
+
+MODELS = [("impulses", "gauss-seidel"), ("impulses", "jacobi"), ("dem", None)]
+
+
+# ---------------------------------------------------------------- a pair placed overlapping
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_a_half_radius_overlap_goes_at_the_push_speed_keeping_momentum(method):
+    # Two particles at rest, half a radius into each other: they separate by positions only,
+    # their gap closing at max_push_speed (the pair's overlap shrinks by max_push_speed * dt a
+    # substep, shared by inverse mass), no velocity left, the centre of mass unmoved.
+    ma, mb = 1.0, 2.0
+    scene = tc.Scene(gravity=(0, 0, 0), dt=1e-3, substeps=1)
+    scene.enable_particle_collisions(method=method)
+    x0 = np.array([[0.0, 0.0, 0.0], [1.5 * R, 0.0, 0.0]])
+    scene.add_particles(positions=x0, mass=np.array([ma, mb]), radius=R)
+    centre = (ma * x0[0] + mb * x0[1]) / (ma + mb)
+    for k in range(1, 8):
+        scene.step()
+        x, v = scene.positions(), scene.velocities()
+        assert np.array_equal(v, np.zeros((2, 3)))
+        gap = np.linalg.norm(x[1] - x[0])
+        assert gap == pytest.approx(min(2 * R, 1.5 * R + k * MAX_PUSH_SPEED * 1e-3), rel=1e-5)
+        assert np.allclose((ma * x[0] + mb * x[1]) / (ma + mb), centre, atol=1e-9)
+    assert scene.particle_overlap()["pairs"] == 0
+
+
+def test_the_push_speed_is_a_setting_in_metres_per_second():
+    scene = tc.Scene(gravity=(0, 0, 0), dt=1e-3, substeps=1)
+    settings = scene.enable_particle_collisions(max_push_speed=0.1)
+    assert settings.settings.max_push_speed == 0.1
+    scene.add_particles(positions=[[0, 0, 0], [1.5 * R, 0, 0]], radius=R)
+    scene.step()
+    assert np.linalg.norm(np.diff(scene.positions(), axis=0)) == pytest.approx(1.5 * R + 0.1e-3, rel=1e-5)
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="max_push_speed"):
+            tc.Scene().enable_particle_collisions(max_push_speed=bad)
+
+
+def test_a_dem_pair_placed_overlapping_leaves_slower_than_the_push_speed():
+    # The spring acts on the overlap beyond the pair's allowances, which shrink at the push
+    # speed: the pair separates without the spring's stored energy (k d^2 / 2 would throw
+    # these two apart at metres per second).
+    scene = tc.Scene(gravity=(0, 0, 0), substeps="auto", solver=tc.PenaltySolver(hertz=200.0))
+    scene.enable_particle_collisions()
+    scene.add_particles(positions=[[0, 0, 0], [R, 0, 0]], radius=R)
+    fastest = 0.0
+    for _ in range(20):
+        scene.step()
+        fastest = max(fastest, np.abs(scene.velocities()).max())
+        assert np.allclose(scene.velocities().sum(axis=0), 0.0, atol=1e-6)  # momentum kept
+    assert 0.0 < fastest <= MAX_PUSH_SPEED
+    assert scene.particle_overlap()["pairs"] == 0
+
+
+@pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
+def test_a_particle_teleported_onto_another_is_pushed_out_slowly(method):
+    # set_positions places particles anew: overlap it makes is removed like a spawn's.
+    scene = tc.Scene(gravity=(0, 0, 0), dt=1 / 600, substeps=10)
+    scene.enable_particle_collisions(method=method)
+    scene.add_particles(positions=[[0, 0, 0], [0.1, 0, 0]], radius=R)
+    scene.step()
+    scene.set_positions([[0, 0, 0], [0.2 * R, 0, 0]])
+    for _ in range(6):
+        scene.step()
+        assert np.abs(scene.velocities()).max() <= MAX_PUSH_SPEED
+    assert scene.particle_overlap()["pairs"] == 0
+
+
+# ---------------------------------------------------------------- random spawns
+@pytest.mark.parametrize("model, method", MODELS)
+def test_random_particles_in_a_cube_separate_without_speed(model, method):
+    # The issue's cube at a third of the count (the same density): 1,700 particles of radius
+    # 5 mm at random in a 0.208 m cube, no gravity, many overlapping (before: 22 m/s with
+    # impulses, 190 m/s with DEM). No particle faster than 1 m/s at any frame, overlap gone
+    # within 0.3 s.
+    scene_options, options = pair_options(model, method)
+    scene = tc.Scene(gravity=(0, 0, 0), **scene_options)
+    scene.enable_particle_collisions(**options)
+    scene.add_particles(positions=random_cube(1700, 0.208), radius=R)
+    assert scene.particle_overlap()["pairs"] > 300
+    for _ in range(18):
+        scene.step()
+        assert np.linalg.norm(scene.velocities(), axis=1).max() < 1.0
+    overlap = scene.particle_overlap()
+    assert overlap["max"] < 0.05
+
+
+@pytest.mark.parametrize("model, method", MODELS)
+def test_a_pour_of_overlapping_spawns_never_climbs(model, method):
+    # 1,000 particles spawned at random, overlapping, in a box above a mesh block: none ever
+    # higher above the spawn box's top than a particle leaving at the push speed rises (before:
+    # they reached 1.8 m from a 0.2 m spawn, at 8 m/s), none faster than free fall from it
+    # allows (plus the push speed), none through the mesh.
+    scene_options, options = pair_options(model, method)
+    scene = tc.Scene(**scene_options)
+    block = trimesh.creation.box(extents=(0.4, 0.05, 0.4))
+    block.apply_translation((0.0, -0.025, 0.0))
+    scene.add_collider(tc.TriangleMesh(block), material=tc.Material(restitution=0.3, friction=0.5))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.3, friction=0.5), **options)
+    x0 = random_cube(1000, 0.1) + (-0.05, 0.1, -0.05)
+    top = x0[:, 1].max()
+    scene.add_particles(positions=x0, radius=R)
+    for _ in range(30):
+        scene.step()
+        x, v = scene.positions(), scene.velocities()
+        assert x[:, 1].max() <= top + 2 * R + MAX_PUSH_SPEED ** 2 / (2 * G)
+        fall = np.sqrt(2 * G * np.maximum(top - x[:, 1], 0.0))
+        assert np.all(np.linalg.norm(v, axis=1) <= fall + MAX_PUSH_SPEED + 0.1)
+    over = np.abs(x[:, [0, 2]]).max(axis=1) < 0.19  # (some roll off the block's edges)
+    assert np.all(x[over, 1] > 0.0)  # none through the mesh
+
+
+# ---------------------------------------------------------------- substeps chosen for the scene
+def stiff_dem(**scene_options):
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=400.0), **scene_options)
+    scene.add_collider(tc.Plane())
+    scene.enable_particle_collisions()
+    rng = np.random.default_rng(0)
+    scene.add_particles(positions=rng.uniform((-0.05, 0.005, -0.05), (0.05, 0.1, 0.05), (300, 3)), radius=R)
+    return scene
+
+
+def test_auto_substeps_keep_a_stiff_dem_contact_stable_where_the_fixed_dt_diverges():
+    fixed = stiff_dem(dt=1 / 600, substeps=10)
+    with pytest.warns(RuntimeWarning, match="recommended"):
+        with pytest.raises(tc.SimulationError, match=r"diverging.*Use dt <= 3\.98e-05 s"):
+            fixed.step(30)
+    auto = stiff_dem(substeps="auto", frame_dt=1 / 60)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        auto.step(30)
+    stats = auto.stats()
+    assert stats["substep_limit"] == "stability"
+    assert stats["dt"] <= auto.solver.contact_params(0.5).recommended_dt
+    assert stats["substeps"] == int(np.ceil((1 / 60) / auto.solver.contact_params(0.5).recommended_dt))
+    assert auto.time == pytest.approx(0.5, rel=1e-12)
+    assert np.linalg.norm(auto.velocities(), axis=1).max() < 0.5
+    assert auto.positions()[:, 1].min() > 0.0
+
+
+def test_auto_substeps_follow_the_fastest_particle():
+    # Impulses (no stability limit): the travel limit alone. A particle at 30 m/s moves at most
+    # cfl * r a substep; once it has stopped the frame needs one substep (gravity off).
+    scene = tc.Scene(gravity=(0, 0, 0), substeps="auto", frame_dt=0.01, cfl=0.5)
+    scene.add_particles(positions=[[0, 0, 0]], velocities=[[30.0, 0, 0]], radius=R)
+    scene.step()
+    assert scene.stats()["substeps"] == int(np.ceil(0.01 * 30.0 / (0.5 * R)))
+    assert scene.stats()["substep_limit"] == "cfl"
+    assert scene.positions()[0, 0] == pytest.approx(0.3)
+    scene.set_velocities([[0.0, 0.0, 0.0]])
+    scene.step()
+    assert scene.stats()["substeps"] == 1 and scene.stats()["substep_limit"] == "frame_dt"
+    assert scene.time == pytest.approx(0.02)
+    assert scene.frame_time == 0.01
+
+
+def test_auto_substeps_are_capped_with_a_warning():
+    scene = tc.Scene(gravity=(0, 0, 0), substeps="auto", frame_dt=0.01, max_substeps=8)
+    scene.add_particles(positions=[[0, 0, 0]], velocities=[[30.0, 0, 0]], radius=R)
+    with pytest.warns(RuntimeWarning, match="max_substeps"):
+        scene.step()
+    assert scene.stats()["substeps"] == 8 and scene.stats()["substep_limit"] == "max_substeps"
+
+
+def test_a_fixed_scene_reports_its_substeps():
+    scene = tc.Scene(dt=1e-3, substeps=4)
+    scene.add_particles(positions=[[0, 1, 0]])
+    scene.step()
+    assert {k: scene.stats()[k] for k in ("substeps", "dt", "substep_limit")} == {
+        "substeps": 4, "dt": 1e-3, "substep_limit": "fixed"}
+    assert tc.Scene(frame_dt=0.02, substeps=4).dt == 0.005
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"substeps": "fast"}, "substeps"),
+    ({"substeps": 0}, "substeps"),
+    ({"substeps": "auto", "frame_dt": 0.0}, "frame_dt"),
+    ({"substeps": "auto", "max_substeps": 0}, "max_substeps"),
+    ({"substeps": "auto", "cfl": -1.0}, "cfl"),
+    ({"substeps": 10, "cfl": 0.5}, "cfl"),
+    ({"substeps": 10, "max_substeps": 5}, "max_substeps"),
+    ({"substeps": 10, "dt": 1e-3, "frame_dt": 1 / 60}, "frame_dt"),
+])
+def test_substep_arguments_are_checked(kwargs, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        tc.Scene(**kwargs)
