@@ -389,10 +389,9 @@ def test_non_finite_run_names_particles_and_suggests_dt():
     scene.add_particles(positions=[[0.0, 0.02, 0.0], [0.1, 0.015, 0.0]], radius=R, mass=1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        with pytest.raises(tc.SimulationError, match=r"indices \[1\]\).*recommended dt is "
-                           + f"{contact.recommended_dt:.3g}"):
+        # (the run is stopped as diverging, naming the dt to use, before it turns NaN)
+        with pytest.raises(tc.SimulationError, match=r"diverging.*Use dt <= " + f"{contact.recommended_dt:.3g}"):
             scene.step(100)
-    assert list(scene.particle_status()) == ["active", "non_finite"]
 
 
 def test_backward_euler_is_stable_at_large_dt_and_damps_the_bounce():
