@@ -2,6 +2,8 @@
 form: two-body laws, stacks and piles, the Gauss-Seidel and Jacobi passes, the projection
 and the settle pass."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -271,8 +273,10 @@ def test_one_projection_pass_separates_every_isolated_pair(method, relaxation, m
     x = np.concatenate([centres + 0.5 * gap[:, None] * axis, centres - 0.5 * gap[:, None] * axis])
     mass = rng.uniform(1.0, 3.0, 2 * pairs)
     scene = tc.Scene(dt=1 / 1000, substeps=1, gravity=(0.0, 0.0, 0.0))
+    # (max_push_speed=inf: the projection on the overlap these pairs are placed with)
     settings = scene.enable_particle_collisions(material=tc.Material(restitution=0.0, friction=0.0), method=method,
-                                                projection_iterations=1, relaxation=relaxation)
+                                                projection_iterations=1, relaxation=relaxation,
+                                                max_push_speed=math.inf)
     share = min(1.0, settings.relaxation)
     assert share == (1.0 if relaxation is None else relaxation)
     scene.add_particles(positions=x, radius=r, mass=mass)
@@ -312,7 +316,7 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
     particles = ParticleArgs(count=n, x=on_device(x), v=on_device(v), mass=on_device(mass),
                              radius=on_device(np.full(n, r)), flags=on_device(np.zeros(n, int)),
-                             stats=on_device(np.zeros(4, int)))
+                             allowance=on_device(np.zeros(n)), stats=on_device(np.zeros(4, int)))
     law = dict(restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=WET_LINEAR)
     gauss_seidel.settle_pass(particles, grid.args, grid.lists, law, 1e-3, changed, x1, v1)
     after = v1.to_numpy().astype(float)
