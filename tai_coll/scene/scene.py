@@ -19,7 +19,7 @@ from ..types import STATUS_NAMES
 from .colliders import ColliderEntry, ColliderTable
 from .motion import make_motion
 from .particles import ParticleStore
-from .stepping import DIVERGED_FACTOR, DIVERGED_SPEED, SubstepChoice
+from .stepping import DEFAULT_SUBSTEPS, DIVERGED_FACTOR, DIVERGED_SPEED, SubstepChoice
 
 
 class Scene:
@@ -40,7 +40,7 @@ class Scene:
         frozen where it left and no longer simulated (see `particle_status()`), with a warning.
     """
 
-    def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float | None = None, substeps: int | str = 10,
+    def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float | None = None, substeps: int | str = DEFAULT_SUBSTEPS,
                  frame_dt: float | None = None, max_substeps: int | None = None, cfl: float | None = None,
                  solver=None, domain=None):
         self._runtime = runtime.ensure_init()

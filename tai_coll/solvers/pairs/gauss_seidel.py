@@ -33,6 +33,7 @@ import taichi as ti
 from ... import runtime
 from ...response.laws import TINY, pair_normal, respond
 from ...types import ARRAY, GridArgs, ListArgs, ParticleArgs, ivec3, vec3
+from .placement import placed_overlap
 
 COLOURS = 8
 # A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
@@ -160,20 +161,17 @@ def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), 
                                 # x) is not a collision: it goes by positions only, by at most
                                 # push_distance a substep; what developed since moves the
                                 # velocities too (docs/physics.md 5)
-                                overlap = reach - dist
-                                before = ti.select(allowance_i + particles.allowance[j] > 0.0,
-                                                   ti.max(reach - (x_start - particles.x[j]).norm(), 0.0), 0.0)
-                                separate = overlap - ti.max(before - push_distance, 0.0)
+                                separate, followed = placed_overlap(reach - dist, reach, x_start, particles.x[j],
+                                                                    allowance_i + particles.allowance[j], push_distance)
                                 if separate > 0.0:
                                     found = 1
                                     move = (separate * (relaxation / (mi + mj))) * nrm
-                                    developed = overlap - before
                                     push = move
-                                    if developed < separate:
+                                    if followed < separate:
                                         # the rest moves the candidates only, not the velocities; a
                                         # particle moved so gets that much allowance, so that overlap
                                         # it is pushed into counts as placed too
-                                        push = (ti.max(developed, 0.0) * (relaxation / (mi + mj))) * nrm
+                                        push = (followed * (relaxation / (mi + mj))) * nrm
                                         shift = move - push
                                         grown += mj * shift.norm()
                                         particles.allowance[j] = particles.allowance[j] + mi * shift.norm()

@@ -17,6 +17,7 @@ import taichi as ti
 
 from ...response.laws import pair_normal, respond
 from ...types import ACTIVE, ARRAY, ListArgs, ParticleArgs, vec3
+from .placement import placed_overlap
 
 
 @ti.func
@@ -120,10 +121,8 @@ def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, r
                 acc += ti.select(touching, share, 0.0) * nrm
                 separating += ti.cast(touching, ti.i32)
             else:
-                before = ti.select(particles.allowance[i] + particles.allowance[j] > 0.0,
-                                   ti.max(reach - (particles.x[i] - particles.x[j]).norm(), 0.0), 0.0)
-                separate = overlap - ti.max(before - push_distance, 0.0)
-                developed = ti.min(ti.max(overlap - before, 0.0), separate)
+                separate, developed = placed_overlap(overlap, reach, particles.x[i], particles.x[j],
+                                                     particles.allowance[i] + particles.allowance[j], push_distance)
                 part = pair_share(contacts, i, j, relaxation) * particles.mass[j] / (mi + particles.mass[j])
                 moving = touching & (separate > 0.0)
                 acc += ti.select(moving, part * separate, 0.0) * nrm

@@ -28,6 +28,18 @@ SHRINK = 0.25
 SLOP = 0.01
 
 
+@ti.func
+def placed_overlap(overlap, reach, x_i, x_j, allowance_sum, push_distance):
+    """A projection's split of a pair's overlap at the candidates (`overlap`, m) while
+    allowances are left: (what it removes this substep, how much of that the velocity follows).
+    x_i, x_j: the start positions; allowance_sum: the pair's two allowances. Overlap the pair had
+    at the start goes by positions only, push_distance of it this substep, and only if the pair
+    has an allowance; overlap that developed since is followed as usual."""
+    before = ti.select(allowance_sum > 0.0, ti.max(reach - (x_i - x_j).norm(), 0.0), 0.0)
+    separate = overlap - ti.max(before - push_distance, 0.0)
+    return separate, ti.min(ti.max(overlap - before, 0.0), separate)
+
+
 @ti.kernel
 def _grant_allowances(grid: GridArgs, inv_cell: float, placed_from: ti.i32,
                       # in-out
