@@ -12,11 +12,19 @@ for a while, its state measured every `--every` simulated seconds:
 - the height of the top particle and of the centre of mass (a pile that creeps sinks);
 - particles outside the box (should stay 0) and the wall time so far.
 
+- how many particles sleep (docs/physics.md 5.3.1).
+
+`--lattice N` instead builds the pile of issue [2 of 6]: N^3 particles of radius 6 mm on a
+lattice at 2.2 r (jitter 0.1 r, no overlap) in a box of planes as wide as the lattice, e = 0.3,
+mu = 0.5, the default Scene and solver with sleep_time=0.3 (N = 22: 10,648 particles; the promise at 2 s: speeds
+p99 <= 5 mm/s, max <= 20 mm/s, mean overlap < 2 % of the radius).
+
 Prints one line per measurement and writes them all as JSON (default
 bench_results/pile_settle.json), with the machine. Examples:
 
     python tools/pile_settle.py --particles 100000 --seconds 1.5
     python tools/pile_settle.py --particles 1000000 --seconds 1.5 --variant impulse
+    python tools/pile_settle.py --lattice 22 --seconds 2 --every 0.5
 """
 
 from __future__ import annotations
@@ -64,6 +72,7 @@ def measure(scene, half: float, wall_s: float, frame_start: np.ndarray, frame_s:
         "top_m": float(x[:, 1].max()),
         "centre_of_mass_height_m": float(x[:, 1].mean()),
         "outside": int(outside.sum()),
+        "asleep": int(scene.sleeping().sum()),
         "wall_s": wall_s,
     }
 
@@ -78,7 +87,30 @@ def print_row(row: dict) -> None:
           f"{mm_s(row, 'speed')}  moved (last frame | since the last row) {mm_s(row, 'moved_last_frame')} | "
           f"{mm_s(row, 'moved_since_last_measurement')} mm/s  overlap {100 * row['overlap_mean']:4.1f} % / "
           f"{100 * row['overlap_max']:5.1f} %  top {row['top_m']:.4f} m  centre {row['centre_of_mass_height_m']:.4f} m"
-          f"  outside {row['outside']}  wall {row['wall_s']:6.0f} s", flush=True)
+          f"  outside {row['outside']}  asleep {row['asleep']}  wall {row['wall_s']:6.0f} s", flush=True)
+
+
+LATTICE_RADIUS = 0.006
+
+
+def lattice_pile(tc, n_side: int, seed: int = 0, sleep_time: float | None = 0.3):
+    """The pile of issue [2 of 6] (see the module's notes), its particles sleeping after
+    sleep_time (None: never): (scene, half width of the box)."""
+    rng = np.random.default_rng(seed)
+    r = LATTICE_RADIUS
+    spacing = 2.2 * r
+    g = (np.arange(n_side) - (n_side - 1) / 2) * spacing
+    X, Y, Z = np.meshgrid(g, 2 * r + spacing * np.arange(n_side), g, indexing="ij")
+    x = np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1) + rng.uniform(-0.1 * r, 0.1 * r, (n_side ** 3, 3))
+    half = n_side / 2 * spacing + r
+    scene = tc.Scene()
+    material = tc.Material(restitution=0.3, friction=0.5)
+    for point, normal in [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),
+                          ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]:
+        scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
+    scene.enable_particle_collisions(material=material, sleep_time=sleep_time)
+    scene.add_particles(positions=x, radius=r)
+    return scene, half
 
 
 def main(argv=None) -> int:
@@ -87,6 +119,8 @@ def main(argv=None) -> int:
     parser.add_argument("--seconds", type=float, default=1.5, help="simulated seconds from the drop")
     parser.add_argument("--every", type=float, default=0.25, help="simulated seconds between measurements")
     parser.add_argument("--variant", choices=bench_pile.VARIANTS, default="impulse")
+    parser.add_argument("--lattice", type=int, default=None, metavar="N",
+                        help="the [2 of 6] lattice pile of N^3 particles instead of the benchmark pile")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
     parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
     parser.add_argument("--json", default="bench_results/pile_settle.json")
@@ -95,13 +129,20 @@ def main(argv=None) -> int:
         parser.error("--particles must be >= 1")
     if args.seconds <= 0 or args.every <= 0:
         parser.error("--seconds and --every must be > 0")
+    if args.lattice is not None and args.lattice < 1:
+        parser.error("--lattice must be >= 1")
 
     import tai_coll as tc
 
     init_taichi(tc, args)
-    scene = bench_pile.pile_scene(tc, args.particles, variant=args.variant)
-    half = bench_pile.pile_half(args.particles)
-    frame = bench_pile.SUBSTEPS * bench_pile.DT[bench_pile.base_variant(args.variant)]
+    if args.lattice is not None:
+        scene, half = lattice_pile(tc, args.lattice)
+        args.particles, args.variant = scene.num_particles, f"lattice {args.lattice}^3, default Scene"
+        frame = scene.substeps * scene.dt
+    else:
+        scene = bench_pile.pile_scene(tc, args.particles, variant=args.variant)
+        half = bench_pile.pile_half(args.particles)
+        frame = bench_pile.SUBSTEPS * bench_pile.DT[bench_pile.base_variant(args.variant)]
     per = max(1, int(round(args.every / frame)))
     total = max(1, int(round(args.seconds / frame)))
     print(f"pile of {args.particles:,}, {args.variant}, {scene.substeps} substeps of {scene.dt * 1e3:g} ms per "

@@ -10,17 +10,18 @@ import taichi as ti
 
 from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs
 
-QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance")
+QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance", "rest", "anchor")
 
 
 @ti.kernel
 def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
              mass: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(),
-             allowance: ti.types.ndarray(), clearance: ti.types.ndarray(), ids: ti.types.ndarray(),
+             allowance: ti.types.ndarray(), rest: ti.types.ndarray(), anchor: ti.types.ndarray(),
+             clearance: ti.types.ndarray(), ids: ti.types.ndarray(),
              # outputs: slot k gets what slot order[k] held
              x2: ti.types.ndarray(), v2: ti.types.ndarray(), mass2: ti.types.ndarray(), radius2: ti.types.ndarray(),
-             flags2: ti.types.ndarray(), allowance2: ti.types.ndarray(), clearance2: ti.types.ndarray(),
-             ids2: ti.types.ndarray()):
+             flags2: ti.types.ndarray(), allowance2: ti.types.ndarray(), rest2: ti.types.ndarray(),
+             anchor2: ti.types.ndarray(), clearance2: ti.types.ndarray(), ids2: ti.types.ndarray()):
     for k in range(n):
         i = order[k]
         x2[k] = x[i]
@@ -29,6 +30,8 @@ def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.
         radius2[k] = radius[i]
         flags2[k] = flags[i]
         allowance2[k] = allowance[i]
+        rest2[k] = rest[i]
+        anchor2[k] = anchor[i]
         clearance2[k] = clearance[i]
         ids2[k] = ids[i]
 
@@ -58,18 +61,23 @@ def _spin_array(capacity: int):
 
 
 def _stored_arrays(capacity: int) -> tuple:
-    """x, v, mass, radius, flags, allowance, clearance, ids: every array the store keeps per
-    particle."""
+    """x, v, mass, radius, flags, allowance, rest, anchor, clearance, ids: every array the store
+    keeps per particle."""
     return (ti.Vector.ndarray(3, float, shape=capacity), ti.Vector.ndarray(3, float, shape=capacity),
             ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity),
-            ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity))
+            ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity),
+            ti.Vector.ndarray(3, float, shape=capacity), ti.ndarray(float, shape=capacity),
+            ti.ndarray(ti.i32, shape=capacity))
 
 
 class ParticleStore:
-    """Positions x (m), velocities v (m/s), mass (kg), radius (m), a status flag and an overlap
+    """Positions x (m), velocities v (m/s), mass (kg), radius (m), a status flag, an overlap
     allowance (m: overlap with its neighbours that a particle was given when it was placed,
-    removed by positions at a capped speed, docs/physics.md 5); angular velocities w (rad/s)
-    once a solver that spins particles asks for them (enable_spin)."""
+    removed by positions at a capped speed, docs/physics.md 5) a rest time (s: how long the
+    particle has stayed near its anchor, the position where it came to rest, held by its
+    contacts; negative: asleep, docs/physics.md 5.4);
+    angular velocities w (rad/s) once a solver that spins particles asks for them
+    (enable_spin)."""
 
     def __init__(self, capacity: int = 1024):
         self.count = 0
@@ -117,7 +125,7 @@ class ParticleStore:
     def _allocate(self, capacity: int):
         old = {name: self.read(name) for name in self._quantities()} if self.count else None
         # ids: the public index of the particle in each slot
-        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids) = _stored_arrays(capacity)
+        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids) = _stored_arrays(capacity)
         self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
         self.permuted = False  # whether the storage order may differ from the public order
         self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
@@ -152,7 +160,8 @@ class ParticleStore:
             self._write_range("ids", start, np.arange(start, start + n, dtype=np.int32))
             self._ids_host = None
         for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
-                             ("flags", np.zeros(n, dtype=np.int32)), ("allowance", np.zeros(n))):
+                             ("flags", np.zeros(n, dtype=np.int32)), ("allowance", np.zeros(n)),
+                             ("rest", np.zeros(n)), ("anchor", x)):
             self._write_range(name, start, values)
         if n:
             self.placed_from = start if self.placed_from is None else min(self.placed_from, start)
@@ -200,6 +209,13 @@ class ParticleStore:
         self._write_range(name, 0, values)
         if name == "x" and self.count:
             self.placed_from = 0  # every particle was placed anew
+        if name not in ("rest", "anchor"):
+            self.wake_all()
+
+    def wake_all(self):
+        """Every sleeping particle awake, every rest time back to zero (the state was written
+        from the host, gravity changed, ...: docs/physics.md 5.4)."""
+        self.rest.fill(0.0)
 
     def permute(self, order, n: int):
         """Reorder the storage: slot k gets the particle of slot order[k] (order: an ndarray
@@ -209,9 +225,9 @@ class ParticleStore:
             raise ValueError(f"permute: n must be the particle count {self.count}; got {n}")
         if self._spare is None:
             self._spare = _stored_arrays(self.capacity)
-        current = (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids)
+        current = (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids)
         _permute(order, n, *current, *self._spare)
-        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids) = self._spare
+        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids) = self._spare
         self._spare = current
         if self.w is not None:
             if self._w_spare is None:
@@ -229,7 +245,8 @@ class ParticleStore:
         arrays or the count change."""
         if self._args is None:
             self._args = ParticleArgs(count=self.count, x=self.x, v=self.v, mass=self.mass, radius=self.radius,
-                                      flags=self.flags, allowance=self.allowance, stats=self.stats)
+                                      flags=self.flags, allowance=self.allowance, rest=self.rest, anchor=self.anchor,
+                                      stats=self.stats)
         return self._args
 
     @property
@@ -249,7 +266,7 @@ class ParticleStore:
     def arrays(self) -> list:
         """Every array the store holds (for memory accounting): the quantities, the second set
         `permute` writes into, and the angular velocities with theirs."""
-        held = [self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.clearance, self.ids]
+        held = [self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids]
         held += list(self._spare or ())
         if self.w is not None:
             held += [self.w] + ([self._w_spare] if self._w_spare is not None else [])

@@ -112,12 +112,15 @@ class Scene:
         with the solver's stiffness and damping (reduced mass) and the material's friction.
         Options (solvers.pairs.PairSettings): method ("gauss-seidel", the default, or
         "jacobi": how the passes visit the pairs), iterations (contact passes, default 1
-        Gauss-Seidel, 4 Jacobi), projection_iterations (2 / 4), relaxation (1.0 / 1.5),
+        Gauss-Seidel, 4 Jacobi), projection_iterations (3 / 4), relaxation (1.0 / 1.5),
         contact_margin (m; None: a quarter of the largest radius), verlet_skin (m; 0: extra
         reach that lets neighbour lists be kept between substeps), reorder (True: the store
         kept in the grid's cell order; public order never changes), tangential_springs (False;
         DEM pairs only: friction by a spring per contact, Cundall and Strack, so static friction
-        holds without creeping) and tangential_ratio (2/7: k_t / k_n). With
+        holds without creeping), tangential_ratio (2/7: k_t / k_n), max_push_speed (m/s, 0.5:
+        overlap particles were placed with goes by positions at this speed) and, Gauss-Seidel
+        only, sleep_time (s, 0.3; None: no sleeping), sleep_drift (0.3 radii) and wake_speed
+        (m/s, 0.05): particles at rest that long fall asleep (docs/physics.md 5.4). With
         tc.PenaltySolver(spin=True) pairs also exchange torques: friction acts at the contact
         point and the material's rolling_friction resists rolling (a rolling spring per
         contact with tangential_springs). Returns the scene's ParticleCollisions (settings and
@@ -128,6 +131,7 @@ class Scene:
             raise ValueError("tangential_springs: DEM pairs only (the scene's solver must be a tc.PenaltySolver; "
                              f"got {type(self.solver).__name__}, whose pair impulses hold statically already)")
         self._pairs = ParticleCollisions(settings)
+        self._particles.wake_all()
         self._world = dataclasses.replace(self._world, pair_contacts=True)
         self._warned_dropped = False
         self._solver_checked = None  # pair contacts can be the stiffest
@@ -278,6 +282,7 @@ class Scene:
     @gravity.setter
     def gravity(self, value):
         self._world = dataclasses.replace(self._world, gravity=validate.vector3("gravity", value))
+        self._particles.wake_all()  # (what held a sleeping particle may no longer: docs/physics.md 5.4)
 
     @property
     def domain(self) -> tuple | None:
@@ -327,6 +332,11 @@ class Scene:
         domain box, frozen where it left) or "non_finite" (its state turned NaN/inf, frozen at
         its last finite state)."""
         return np.array(STATUS_NAMES)[self._particles.read("flags")]
+
+    def sleeping(self) -> np.ndarray:
+        """Per particle, in the order they were added: whether it is asleep (at rest in a pile,
+        not moving until something wakes it; docs/physics.md 5.4)."""
+        return self._particles.read("rest") < 0.0
 
     def status(self) -> np.ndarray:
         """The old name of particle_status() (removed in tai_coll 0.3)."""

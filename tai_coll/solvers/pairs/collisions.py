@@ -46,6 +46,7 @@ from . import dem, gauss_seidel, jacobi
 from .overlap import overlap
 from .placement import SHRINK, grant_allowances, shrink_allowances
 from .predict import predict_kernel
+from .sleeping import update_rest
 from .settings import PairSettings
 from .springs import SpringHistory
 
@@ -74,6 +75,8 @@ class ParticleCollisions:
         self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
         self._law = None  # (key, the DEM law's argument pack)
         self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
+        self._slept = False  # whether particles may have fallen asleep (sleeping.py)
+        self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -170,12 +173,15 @@ class ParticleCollisions:
         law = dict(restitution=m.restitution, friction=m.friction, wet_friction=m.wet_friction,
                    wet_law=WET_LAWS["linear"])
         placed = self._place(particles)
+        sleep = self._sleep = self._may_sleep(world)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         contacts = self._predict_and_list(world, dt, settings.margin_length(r_max), settings.skin_length(r_max))
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
         # 3. elastic pass on v(t)
         self.v_start.copy_from(particles.v)
+        if sleep:
+            self.delta.copy_from(particles.x)  # x(t), for update_rest (Gauss-Seidel leaves delta free)
         if not self._velocity_pass(particles, dt, law, elastic=True) and settings.method == "jacobi":
             self._counts.reverse()  # (it counted the contacts all the same)
         #    ... and the colliders' own scheme (its elastic pass included) on the candidates
@@ -198,11 +204,24 @@ class ParticleCollisions:
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
             gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
-                                     self.changed, self.x1, self.v1)
+                                     self.changed, self.x1, self.v1, sleep=sleep)
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = self._counts[0]
         self._relax(particles, dt)
+        if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
+            update_rest(particles.args, self.delta, self.v_start, ti.math.vec3(*world.gravity), dt,
+                        settings.sleep_time, settings.sleep_drift)
+
+    def _may_sleep(self, world) -> bool:
+        """Whether particles may sleep this substep (sleeping.py): sleeping is on, and no
+        collider is kinematic (its motion may take away a sleeping particle's support without
+        touching it); otherwise every particle that slept is woken."""
+        sleep = self.settings.sleep_time is not None and not world.colliders.has_kinematic
+        if not sleep and self._slept:
+            world.particles.wake_all()
+        self._slept = sleep
+        return sleep
 
     def _predict_and_list(self, world, dt: float, reach: float, skin: float):
         """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach
@@ -241,7 +260,8 @@ class ParticleCollisions:
             # the elastic pass is not over-relaxed: an isolated pair bounces with e exactly
             gauss_seidel.velocity_pass(elastic, particles.args, self.grid.args, self.grid.lists, law,
                                        1.0 if elastic else self.settings.relaxation, dt, self.changed,
-                                       v_test, self.x1, self.v1)
+                                       v_test, self.x1, self.v1,
+                                       wake_speed=self.settings.wake_speed if self._sleep else None)
         else:
             jacobi.velocity_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
                                  v_test=v_test, **law, relaxation=self.settings.relaxation, dt=dt,
@@ -254,7 +274,8 @@ class ParticleCollisions:
         of them goes by positions only. Returns whether any pair had overlap to remove."""
         if self.settings.method == "gauss-seidel":
             gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, self.settings.relaxation, dt,
-                                         placed, push_distance, self.changed, self.x1, self.v1)
+                                         placed, push_distance, self.changed, self.x1, self.v1,
+                                         sleep=self._sleep)
         else:
             # (v_start, the elastic pass's copy of v(t), is free once the velocity passes are done)
             jacobi.projection_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],

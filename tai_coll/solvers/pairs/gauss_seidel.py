@@ -34,6 +34,7 @@ from ... import runtime
 from ...response.laws import TINY, pair_normal, respond
 from ...types import ARRAY, GridArgs, ListArgs, ParticleArgs, ivec3, vec3
 from .placement import placed_overlap
+from .sleeping import WOKEN, is_asleep, shares, wakes
 
 COLOURS = 8
 # A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
@@ -87,10 +88,10 @@ SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
-def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), grid: GridArgs, lists: ListArgs,
-          particles: ParticleArgs,
+def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit_bits: ti.template(), grid: GridArgs,
+          lists: ListArgs, particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
-          dt: float, push_distance: float,
+          dt: float, push_distance: float, wake_speed: float,
           # outputs
           changed: ARRAY,
           # in-out
@@ -111,6 +112,9 @@ def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), 
     SETTLE (v_test is v1): the law (with restitution) on the velocities of the pairs touching
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
         the end of the substep carries approaching velocity into the next.
+    sleep: some particles may be asleep (sleeping.py): a sleeping particle takes no part of a
+        pair's change (sleeping.shares), two sleeping ones are skipped, and the ELASTIC pass
+        wakes a sleeping particle that a moving awake one is near (sleeping.wakes, wake_speed).
     Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
     Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
     CPU): the units running at once share no particle. Divisions by the pair's mass sum are
@@ -134,6 +138,9 @@ def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), 
                     x_start = vec3(0.0)  # projection of placed particles: i's start position
                     allowance_i = 0.0  # ... and its overlap allowance
                     grown = 0.0  # ... and what it grows by in this pass
+                    asleep_i = 0
+                    if ti.static(sleep):
+                        asleep_i = ti.cast(is_asleep(particles, i), ti.i32)
                     if ti.static(mode == PROJECTION and placed):
                         x_start = particles.x[i]
                         allowance_i = particles.allowance[i]
@@ -144,17 +151,28 @@ def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), 
                         touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
                         d = xi - xj
                         d2 = d.norm_sqr()
-                        if d2 < touch * touch and (ti.static(mode == PROJECTION)
-                                                   or may_approach(vi - v_test[j], d, d2)):
+                        asleep_j = 0
+                        if ti.static(sleep):
+                            asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
+                            if ti.static(mode == ELASTIC):
+                                if asleep_j != 0 and asleep_i == 0 and wakes(particles.rest[i], vi, d2, reach, wake_speed):
+                                    particles.rest[j] = WOKEN
+                                    asleep_j = 0
+                                elif asleep_i != 0 and asleep_j == 0 and wakes(particles.rest[j], v_test[j], d2, reach, wake_speed):
+                                    particles.rest[i] = WOKEN
+                                    asleep_i = 0
+                        if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
+                                ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
                             nrm, dist = pair_normal(xi, xj, i, j)
-                            mj = particles.mass[j]
+                            # i's and j's parts of the pair's change, by inverse mass
+                            wi, wj = shares(mi, particles.mass[j], asleep_i != 0, asleep_j != 0)
                             if ti.static(mode == PROJECTION and not placed):
                                 found = 1
-                                move = ((reach - dist) * (relaxation / (mi + mj))) * nrm
-                                xi += mj * move
-                                moved += mj * move
-                                x1[j] = xj - mi * move
-                                v1[j] = v1[j] - (mi / dt) * move
+                                move = ((reach - dist) * relaxation) * nrm
+                                xi += wi * move
+                                moved += wi * move
+                                x1[j] = xj - wj * move
+                                v1[j] = v1[j] - (wj / dt) * move
                             elif ti.static(mode == PROJECTION):
                                 # while a pair has an overlap allowance (one of the two was placed
                                 # overlapping), the overlap it had at the start of the substep (at
@@ -165,33 +183,33 @@ def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), 
                                                                     allowance_i + particles.allowance[j], push_distance)
                                 if separate > 0.0:
                                     found = 1
-                                    move = (separate * (relaxation / (mi + mj))) * nrm
+                                    move = (separate * relaxation) * nrm
                                     push = move
                                     if followed < separate:
                                         # the rest moves the candidates only, not the velocities; a
                                         # particle moved so gets that much allowance, so that overlap
                                         # it is pushed into counts as placed too
-                                        push = (followed * (relaxation / (mi + mj))) * nrm
+                                        push = (followed * relaxation) * nrm
                                         shift = move - push
-                                        grown += mj * shift.norm()
-                                        particles.allowance[j] = particles.allowance[j] + mi * shift.norm()
-                                    xi += mj * move
-                                    moved += mj * push
-                                    x1[j] = xj - mi * move
-                                    v1[j] = v1[j] - (mi / dt) * push
+                                        grown += wi * shift.norm()
+                                        particles.allowance[j] = particles.allowance[j] + wj * shift.norm()
+                                    xi += wi * move
+                                    moved += wi * push
+                                    x1[j] = xj - wj * move
+                                    v1[j] = v1[j] - (wj / dt) * push
                             else:
                                 v_rel = vi - v_test[j]
                                 v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
                                 if dvn > 0.0:
                                     found = 1
-                                    change = (v_new - v_rel) * (relaxation / (mi + mj))
-                                    vi += mj * change
-                                    vj = v_test[j] - mi * change
+                                    change = (v_new - v_rel) * relaxation
+                                    vi += wi * change
+                                    vj = v_test[j] - wj * change
                                     v_test[j] = vj
                                     if ti.static(mode == ELASTIC):
-                                        v1[j] = v1[j] - mi * change
-                                        x1[j] = xj - (dt * mi) * change
-                                        xi += (dt * mj) * change
+                                        v1[j] = v1[j] - wj * change
+                                        x1[j] = xj - (dt * wj) * change
+                                        xi += (dt * wi) * change
                                     elif ti.static(mode == CONTACT):
                                         x1[j] = particles.x[j] + dt * vj
                                         xi = particles.x[i] + dt * vi
@@ -210,26 +228,27 @@ def _pass(mode: ti.template(), placed: ti.template(), unit_bits: ti.template(), 
 
 
 def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float,
-                  changed, v_test, x1, v1):
+                  changed, v_test, x1, v1, wake_speed: float | None = None):
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
     law with e = 0) over the pairs of the forward lists; see _pass. particles: the store's
     pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
-    wet_friction and wet_law by name."""
-    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles,
-          **law, relaxation=relaxation, dt=dt, push_distance=0.0, changed=changed, v_test=v_test,
-          x1=x1, v1=v1)
+    wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep."""
+    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None,
+          unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
+          push_distance=0.0, wake_speed=wake_speed or 0.0, changed=changed, v_test=v_test, x1=x1, v1=v1)
 
 
-def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1):
+def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, sleep: bool = False):
     """A velocity pass at the final positions, positions unchanged; see _pass."""
-    _pass(mode=SETTLE, placed=False, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=1.0,
-          dt=dt, push_distance=0.0, changed=changed, v_test=v1, x1=x1, v1=v1)
+    _pass(mode=SETTLE, placed=False, sleep=sleep, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles,
+          **law, relaxation=1.0, dt=dt, push_distance=0.0, wake_speed=0.0, changed=changed, v_test=v1, x1=x1, v1=v1)
 
 
 def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed: bool, push_distance: float,
-                    changed, x1, v1):
+                    changed, x1, v1, sleep: bool = False):
     """A projection pass over the pairs of the forward lists; placed: overlap allowances are
-    left, push_distance (m) of them may go this substep; see _pass."""
-    _pass(mode=PROJECTION, placed=placed, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, restitution=0.0,
-          friction=0.0, wet_friction=0.0, wet_law=0, relaxation=relaxation, dt=dt, push_distance=push_distance,
-          changed=changed, v_test=v1, x1=x1, v1=v1)
+    left, push_distance (m) of them may go this substep; sleep: some particles may sleep; see
+    _pass."""
+    _pass(mode=PROJECTION, placed=placed, sleep=sleep, unit_bits=unit_bits(), grid=grid, lists=lists,
+          particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0, relaxation=relaxation,
+          dt=dt, push_distance=push_distance, wake_speed=0.0, changed=changed, v_test=v1, x1=x1, v1=v1)

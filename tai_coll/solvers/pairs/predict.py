@@ -20,7 +20,7 @@ def predict_kernel(check: bool):
                 # outputs
                 x1: ARRAY, v1: ARRAY, stale: ARRAY):
         """The candidates x1 = x + dt v1, v1 = v + dt g (symplectic Euler; particles no longer
-        simulated keep their state), and (if check) in stale[0] whether the lists seen at
+        simulated and sleeping ones keep their state), and (if check) in stale[0] whether the lists seen at
         seen.listed_at no longer hold: some candidate moved more than sqrt(reach2) from where
         the lists saw it, or its status changed since (neighbors/verlet.py)."""
         stale[0] = 0
@@ -28,7 +28,7 @@ def predict_kernel(check: bool):
             vi = particles.v[i]
             xi = particles.x[i]
             active = particles.flags[i] == ACTIVE
-            if active:
+            if active and particles.rest[i] >= 0.0:  # (a sleeping particle stays: sleeping.py)
                 vi = vi + dt * gravity
                 xi = xi + dt * vi
             v1[i] = vi

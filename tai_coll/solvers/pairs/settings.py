@@ -11,11 +11,12 @@ import numpy as np
 
 from ... import validate
 from ...materials import Material
+from .sleeping import SLEEP_DRIFT, WAKE_SPEED
 
 # How the passes visit the pairs, and the defaults of each: (contact passes, projection passes,
 # relaxation). Gauss-Seidel converges in fewer passes (gauss_seidel.py; docs/design-notes.md
 # has the tuning that chose them).
-METHODS = {"gauss-seidel": (1, 2, 1.0), "jacobi": (4, 4, 1.5)}
+METHODS = {"gauss-seidel": (1, 3, 1.0), "jacobi": (4, 4, 1.5)}
 #: contact_margin's default, in radii of the largest particle.
 MARGIN_RADII = 0.25
 TANGENTIAL_RATIO = 2.0 / 7.0  # default k_t / k_n (and D_t / D_n) of the tangential springs
@@ -37,7 +38,7 @@ class PairSettings:
     method: "gauss-seidel" (default) or "jacobi": how the impulse passes visit the pairs.
     iterations: contact passes per substep (default 1 Gauss-Seidel, 4 Jacobi); more resolve
         piles better, cost more.
-    projection_iterations: position passes removing remaining overlap (default 2
+    projection_iterations: position passes removing remaining overlap (default 3
         Gauss-Seidel, 4 Jacobi).
     relaxation: over-relaxation of the contact and projection passes (1: none; up to 2;
         default 1 Gauss-Seidel, 1.5 Jacobi).
@@ -75,6 +76,16 @@ class PairSettings:
         DEM pairs let it into the spring law at that speed. Default 0.5 m/s, for particles of
         millimetres to centimetres; math.inf: placed overlap is resolved like any other (the
         old behaviour, for tests of the laws on chosen overlaps).
+    sleep_time: s; a particle that stays within sleep_drift of its radius of where it came to
+        rest for this long, held by its contacts, falls asleep: it stops and does not move
+        until something wakes it (docs/physics.md 5.4), so a pile comes to rest instead of
+        trembling at the speed gravity adds in a substep. None (default): no sleeping; 0.3
+        suits piles of millimetre to centimetre particles. Gauss-Seidel only. (Not yet on by
+        default: an impact wakes only the particles it touches, the sleeping pile beyond is
+        rigid, and a particle pressed between them can end deep in it.)
+    sleep_drift: that distance, as a fraction of the particle's radius (default 0.3).
+    wake_speed: m/s; an awake particle that moves faster than this wakes the sleeping ones it
+        nears (default 0.05, for particles of millimetres to centimetres).
     margin, skin: the old, dimensionless forms of contact_margin and verlet_skin (fractions of
         the largest particle radius), kept with a DeprecationWarning.
     """
@@ -90,6 +101,9 @@ class PairSettings:
     tangential_springs: bool = False
     tangential_ratio: float = TANGENTIAL_RATIO
     max_push_speed: float = MAX_PUSH_SPEED
+    sleep_time: float | None = None
+    sleep_drift: float = SLEEP_DRIFT
+    wake_speed: float = WAKE_SPEED
     margin: float | None = None
     skin: float | None = None
 
@@ -116,6 +130,12 @@ class PairSettings:
         put("tangential_ratio", validate.real("tangential_ratio", self.tangential_ratio, low=0.0, low_open=True))
         if self.max_push_speed != math.inf:  # (inf: placed overlap is a collision like any other)
             put("max_push_speed", validate.real("max_push_speed", self.max_push_speed, low=0.0, low_open=True))
+        if self.method != "gauss-seidel" and self.sleep_time is not None:
+            raise ValueError(f"sleep_time: particles sleep with method='gauss-seidel' only; got "
+                             f"{self.sleep_time!r} with method={self.method!r} (give None)")
+        put("sleep_time", validate.real("sleep_time", self.sleep_time, low=0.0, low_open=True, allow_none=True))
+        put("sleep_drift", validate.real("sleep_drift", self.sleep_drift, low=0.0, low_open=True))
+        put("wake_speed", validate.real("wake_speed", self.wake_speed, low=0.0))
         for old, new in (("margin", "contact_margin"), ("skin", "verlet_skin")):
             value = getattr(self, old)
             if value is None:

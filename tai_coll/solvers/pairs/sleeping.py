@@ -1,0 +1,135 @@
+"""Sleeping particles (docs/physics.md 5.4): a pile at rest is put to sleep, so that the few
+passes of a substep cannot keep it trembling.
+
+Each particle keeps an anchor, the position where it came to rest, and a rest time: how long
+it has stayed within `sleep_drift` of its radius of the anchor while its contacts hold it (its
+velocity is not what gravity alone would give it: it is supported, not flying). A particle that
+leaves that ball, or flies, gets rest time zero and a new anchor where it is. After
+`sleep_time` of rest it falls asleep: its velocity is set to zero and it does not move until it
+is woken. The judgement is by positions, not by the stored velocity: a particle wedged in a
+jammed pile can be given a velocity by its contacts every substep that its contacts take back
+every substep (positions that cycle within a few micrometres while the velocity reads tens of
+mm/s); it is still, and sleeping makes its velocity say so.
+
+The Gauss-Seidel passes treat a sleeping particle as immovable (its awake partner takes the
+whole change of a pair: `shares`), so particles resting on a sleeping layer rest on it as on a
+floor and a pile comes to rest from the bottom up; two sleeping particles have nothing to
+resolve.
+
+A sleeping particle wakes
+- when an awake particle within WAKE_REACH (r_i + r_j) of it is moving: its rest time is zero
+  (it left its ball in the last substep, or flies) and it is faster than `wake_speed`:
+  something hits the sleeping one, or what it rests on falls away (falling, it passes the wake
+  speed while still that near). The speed keeps a particle wedged among sleeping ones, which
+  the passes shift by a fraction of a millimetre now and then, from waking them all again;
+- when a collider changes it (the collider pass gives it a velocity);
+- when the host writes the particle state (set_positions, set_velocities, ...) or gravity
+  changes; and particles do not sleep while the scene has kinematic colliders (their motion
+  may take a support away without touching the particle).
+A particle woken by a neighbour keeps its anchor with a rest time just above zero: it sleeps
+again after sleep_time unless it moves, and it wakes others only if it does.
+
+ParticleStore.rest holds each particle's rest time (s), negative while asleep, and
+ParticleStore.anchor its anchor.
+"""
+
+import taichi as ti
+
+from ...types import ACTIVE, ARRAY, ParticleArgs, vec3
+
+#: Default sleep_time (s).
+SLEEP_TIME = 0.3
+#: Default sleep_drift: how far (in its radius) a particle may stray from its anchor and still
+#: count as at rest (a particle wedged in a pile trembles by about a percent of its radius).
+SLEEP_DRIFT = 0.3
+#: How near (in r_i + r_j) a moving awake particle wakes a sleeping one: a support that falls
+#: away leaves its ball (SLEEP_DRIFT) well before it is that far.
+WAKE_REACH = 1.1
+#: Default wake_speed (m/s): a support falling away passes it within 5 ms of free fall.
+WAKE_SPEED = 0.05
+#: The rest time of a particle woken by a neighbour: above zero (it is no wake source itself
+#: unless it moves), far below any sleep_time.
+WOKEN = 1e-9
+ASLEEP = -1.0  # the rest time of a sleeping particle
+#: A contact acted on a particle when its velocity differs from v(t) + g dt by more than this
+#: (relative, in m/s per m/s of that velocity, plus 1 m/s: above f32 round-off).
+HELD = 1e-5
+
+
+@ti.func
+def is_asleep(particles: ti.template(), i):
+    return particles.rest[i] < 0.0
+
+
+@ti.func
+def shares(mi, mj, asleep_i, asleep_j):
+    """The parts of a pair's change of relative velocity (or of separation) that go to i and
+    to j: by inverse mass, m_j / (m_i + m_j) and m_i / (m_i + m_j); a sleeping particle is
+    immovable and takes none (its partner takes it all)."""
+    inv_sum = 1.0 / (mi + mj)
+    wi = ti.select(asleep_i, 0.0, ti.select(asleep_j, 1.0, mj * inv_sum))
+    wj = ti.select(asleep_j, 0.0, ti.select(asleep_i, 1.0, mi * inv_sum))
+    return wi, wj
+
+
+@ti.func
+def wakes(rest_awake, v_awake: vec3, d2, reach, wake_speed):
+    """Whether an awake particle with rest time rest_awake and velocity v_awake, its centre
+    sqrt(d2) from a sleeping one's (reach: r_i + r_j), wakes it: it is moving (rest time zero)
+    faster than wake_speed, and that near."""
+    near = WAKE_REACH * reach
+    return (d2 < near * near) & (rest_awake == 0.0) & (v_awake.norm_sqr() > wake_speed * wake_speed)
+
+
+@ti.kernel
+def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity: vec3, dt: float,
+                sleep_time: float, sleep_drift: float):
+    """At the end of a substep (the new state stored; x_start, v_start: x(t) and v(t), the
+    latter changed by the elastic pass only): each awake particle's rest time and anchor, and
+    those that have rested for sleep_time put to sleep; a sleeping one that a collider gave a
+    velocity woken. A particle that was resting before the substep and still is keeps a
+    velocity no faster than its displacement over the substep: its stored velocity describes
+    its motion (see the module's notes)."""
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE:
+            vi = particles.v[i]
+            xi = particles.x[i]
+            rest_i = particles.rest[i]
+            if rest_i < 0.0:
+                # (the colliders are static while particles sleep: what their pass did to a
+                # sleeping particle is round-off)
+                particles.v[i] = vec3(0.0)
+                particles.x[i] = x_start[i]
+            else:
+                free = v_start[i] + dt * gravity  # its velocity had no contact acted on it
+                held = (vi - free).norm() > HELD * (free.norm() + 1.0)
+                drift = sleep_drift * particles.radius[i]
+                if held and (xi - particles.anchor[i]).norm_sqr() <= drift * drift:
+                    if rest_i > 0.0:
+                        speed = vi.norm()
+                        moved = (xi - x_start[i]).norm() / dt
+                        if speed > moved:
+                            vi *= moved / speed
+                    rest_i += dt
+                    if rest_i >= sleep_time:
+                        rest_i = ASLEEP
+                        vi = vec3(0.0)
+                    particles.v[i] = vi
+                else:
+                    rest_i = 0.0
+                    particles.anchor[i] = xi
+                particles.rest[i] = rest_i
+
+
+@ti.kernel
+def _count_asleep(particles: ParticleArgs, out: ARRAY):
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE and particles.rest[i] < 0.0:
+            out[0] += 1
+
+
+def count_asleep(particles, work) -> int:
+    """How many particles sleep now; work: a one-element i32 array."""
+    work.fill(0)
+    _count_asleep(particles.args, work)
+    return int(work[0])

@@ -1,0 +1,146 @@
+"""Sleeping particles (docs/physics.md 5.4): a pile comes to rest and stays still, with stored
+velocities that describe its motion; anything that moves near it, a change of gravity or a
+write of the state wakes it; a bounce or a drifting particle never sleeps."""
+
+import numpy as np
+import pytest
+
+import tai_coll as tc
+from tools import pile_settle
+
+R = pile_settle.LATTICE_RADIUS
+FRAME = 1 / 60
+
+
+def lattice_pile(n_side):
+    """The issue's pile, smaller: n_side^3 particles of radius R on a jittered lattice (2.2 R
+    apart, no overlap) just above the floor of a box of planes; e = 0.3, mu = 0.5."""
+    return pile_settle.lattice_pile(tc, n_side)
+
+
+@pytest.fixture(scope="module")
+def rested_pile():
+    scene, half = lattice_pile(10)
+    scene.step(120)  # 2 s after the drop
+    return scene, half
+
+
+def test_a_lattice_pile_is_still_two_seconds_after_the_drop(rested_pile):
+    # The issue's promise at a tenth of its size: stored speeds p99 <= 5 mm/s, max <= 20 mm/s,
+    # mean overlap under 2 % of the radius, and the positions agree: over the next frame no
+    # particle moves faster than its stored speed says (plus round-off).
+    scene, _ = rested_pile
+    speed = np.linalg.norm(scene.velocities(), axis=1)
+    assert np.percentile(speed, 99) <= 5e-3
+    assert speed.max() <= 20e-3
+    assert scene.particle_overlap()["mean"] < 0.02
+    before = scene.positions()
+    scene.step()
+    moved = np.linalg.norm(scene.positions() - before, axis=1) / FRAME
+    assert np.percentile(moved, 99) <= 5e-3 and moved.max() <= 20e-3
+    assert scene.sleeping().mean() > 0.9
+    still = scene.sleeping()
+    assert np.array_equal(scene.velocities()[still], np.zeros((still.sum(), 3)))
+
+
+def test_a_fast_particle_wakes_the_particles_it_hits(rested_pile):
+    # A particle fired at a sleeping pile wakes the ones it reaches (they move again), stops on
+    # the pile instead of passing into it, and the pile falls asleep again afterwards. (A
+    # sleeping pile beyond the particles woken is rigid: the hit does not travel through it.)
+    scene, half = rested_pile
+    top = scene.positions()[:, 1].max()
+    n = scene.num_particles
+    assert scene.sleeping().all()
+    scene.add_particles(positions=[[0.0, top + 4 * R, 0.0]], velocities=[[0.0, -2.0, 0.0]], radius=R)
+    scene.step(2)
+    x = scene.positions()
+    woken = np.flatnonzero(~scene.sleeping()[:n])
+    assert len(woken) >= 1
+    assert np.all(np.linalg.norm(x[woken] - x[n], axis=1) < 2.2 * 2 * R)  # near the impact
+    assert top - R < x[n, 1] < top + 2.5 * R
+    assert scene.particle_overlap()["max"] < 0.5
+    scene.step(60)
+    assert scene.sleeping().all()
+
+
+def test_a_change_of_gravity_wakes_everything():
+    scene, half = lattice_pile(6)
+    scene.step(90)
+    assert scene.sleeping().any()
+    scene.gravity = (9.81, -9.81, 0.0)  # the box tips over
+    assert not scene.sleeping().any()
+    before = scene.positions()[:, 0].mean()
+    scene.step(20)
+    assert scene.positions()[:, 0].mean() > before + 0.1 * R
+
+
+def test_writing_velocities_wakes_the_particles():
+    scene, _ = lattice_pile(6)
+    scene.step(90)
+    assert scene.sleeping().any()
+    v = np.zeros((scene.num_particles, 3))
+    v[:, 1] = 0.5
+    scene.set_velocities(v)
+    assert not scene.sleeping().any()
+    y = scene.positions()[:, 1].mean()
+    scene.step()
+    assert scene.positions()[:, 1].mean() > y
+
+
+def test_particles_do_not_sleep_beside_a_kinematic_collider():
+    # a moving collider can take a support away without touching the particle: no sleeping
+    scene = tc.Scene()
+    scene.add_collider(tc.Plane(point=(0, 0, 0), normal=(0, 1, 0)))
+    scene.add_collider(tc.Sphere(center=(1.0, 0.5, 0.0), radius=0.1), velocity=(0.0, 0.0, 0.01))
+    scene.enable_particle_collisions(sleep_time=0.3)
+    scene.add_particles(positions=[[0.0, R, 0.0], [2 * R, R, 0.0], [R, R + 1.8 * R, 0.0]], radius=R)
+    scene.step(60)
+    assert not scene.sleeping().any()
+
+
+def test_a_slow_particle_in_free_flight_never_sleeps():
+    # held by nothing (its velocity is what gravity gives it), however slow
+    scene = tc.Scene(gravity=(0, 0, 0))
+    scene.enable_particle_collisions(sleep_time=0.3)
+    scene.add_particles(positions=[[0.0, 0.0, 0.0]], velocities=[[1e-4, 0.0, 0.0]], radius=R)
+    scene.step(90)
+    assert not scene.sleeping().any()
+    assert scene.positions()[0, 0] == pytest.approx(1e-4 * 1.5, rel=1e-3)
+
+
+def test_a_bounce_keeps_its_restitution_with_sleeping_on():
+    # e^2 h: the apex after the first bounce of a particle dropped from h onto a plane
+    e, h = 0.6, 0.2
+    scene = tc.Scene(dt=1e-4, substeps=10)
+    scene.add_collider(tc.Plane(point=(0, 0, 0), normal=(0, 1, 0)), material=tc.Material(restitution=e))
+    scene.enable_particle_collisions(sleep_time=0.3)
+    scene.add_particles(positions=[[0.0, h + R, 0.0]], radius=R)
+    apex, bounced = 0.0, False
+    for _ in range(700):
+        scene.step()
+        v, y = scene.velocities()[0, 1], scene.positions()[0, 1] - R
+        bounced = bounced or v > 0
+        if bounced:
+            apex = max(apex, y)
+    assert apex == pytest.approx(e * e * h, rel=0.02)
+
+
+@pytest.mark.parametrize("kwargs, error, match", [
+    ({"method": "jacobi", "sleep_time": 0.5}, ValueError, "gauss-seidel"),
+    ({"sleep_time": 0.0}, ValueError, "sleep_time"),
+    ({"sleep_time": -1.0}, ValueError, "sleep_time"),
+    ({"sleep_time": "long"}, TypeError, "sleep_time"),
+    ({"sleep_drift": -0.1}, ValueError, "sleep_drift"),
+    ({"wake_speed": -1.0}, ValueError, "wake_speed"),
+])
+def test_sleep_settings_are_checked(kwargs, error, match):
+    scene = tc.Scene()
+    with pytest.raises(error, match=match):
+        scene.enable_particle_collisions(**kwargs)
+
+
+def test_sleeping_is_off_by_default_and_jacobi_has_none():
+    scene = tc.Scene()
+    assert scene.enable_particle_collisions().settings.sleep_time is None
+    assert scene.enable_particle_collisions(sleep_time=0.3).settings.sleep_time == 0.3
+    assert scene.enable_particle_collisions(method="jacobi").settings.sleep_time is None
