@@ -316,7 +316,8 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
     particles = ParticleArgs(count=n, x=on_device(x), v=on_device(v), mass=on_device(mass),
                              radius=on_device(np.full(n, r)), flags=on_device(np.zeros(n, int)),
-                             allowance=on_device(np.zeros(n)), stats=on_device(np.zeros(4, int)))
+                             allowance=on_device(np.zeros(n)), rest=on_device(np.zeros(n)),
+                             anchor=on_device(x), stats=on_device(np.zeros(4, int)))
     law = dict(restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=WET_LINEAR)
     gauss_seidel.settle_pass(particles, grid.args, grid.lists, law, 1e-3, changed, x1, v1)
     after = v1.to_numpy().astype(float)
@@ -348,7 +349,7 @@ def test_particle_collisions_need_a_material():
     assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (4, 4, 1.5)
     defaults = scene.enable_particle_collisions()
     assert defaults.method == "gauss-seidel"
-    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (1, 2, 1.0)
+    assert (defaults.iterations, defaults.projection_iterations, defaults.relaxation) == (1, 3, 1.0)
     assert not defaults.tangential_springs
     with pytest.raises(ValueError, match="tangential_springs: DEM pairs only"):
         scene.enable_particle_collisions(tangential_springs=True)  # an impulse scene
