@@ -72,6 +72,23 @@ def _vertical(g: ti.template(), ci, q: vec3):
 
 
 @ti.func
+def _window(x, reach, centre, h):
+    """Cells [lo, hi] along one axis (spacing h) within `reach` of coordinate x, cut to WINDOW
+    cells either side of x's cell `centre`; with the distance from x to the cells cut away
+    (INFINITY if none)."""
+    lo = _cell(x - reach, h)
+    hi = _cell(x + reach, h)
+    beyond = INFINITY
+    if lo < centre - WINDOW:
+        lo = centre - WINDOW
+        beyond = ti.min(beyond, x - lo * h)
+    if hi > centre + WINDOW:
+        hi = centre + WINDOW
+        beyond = ti.min(beyond, (hi + 1) * h - x)
+    return lo, hi, beyond
+
+
+@ti.func
 def field_sdf(g: ti.template(), ci, p: vec3):
     """(phi, outward normal) at local point p."""
     dx = g.fshape[ci][3]
@@ -82,23 +99,9 @@ def field_sdf(g: ti.template(), ci, p: vec3):
     dv, up = _vertical(g, ci, q)
     reach = ti.abs(dv)
     # Exact distance over the cells within |dv| horizontally, at most WINDOW cells away.
-    i_lo = _cell(q.x - reach, dx)
-    i_hi = _cell(q.x + reach, dx)
-    j_lo = _cell(q.z - reach, dz)
-    j_hi = _cell(q.z + reach, dz)
-    beyond = INFINITY  # horizontal distance to the cells left out of the window
-    if i_lo < i - WINDOW:
-        i_lo = i - WINDOW
-        beyond = ti.min(beyond, q.x - i_lo * dx)
-    if i_hi > i + WINDOW:
-        i_hi = i + WINDOW
-        beyond = ti.min(beyond, (i_hi + 1) * dx - q.x)
-    if j_lo < j - WINDOW:
-        j_lo = j - WINDOW
-        beyond = ti.min(beyond, q.z - j_lo * dz)
-    if j_hi > j + WINDOW:
-        j_hi = j + WINDOW
-        beyond = ti.min(beyond, (j_hi + 1) * dz - q.z)
+    i_lo, i_hi, beyond_x = _window(q.x, reach, i, dx)
+    j_lo, j_hi, beyond_z = _window(q.z, reach, j, dz)
+    beyond = ti.min(beyond_x, beyond_z)  # horizontal distance to the cells left out of the window
     # The point straight above or below is on the terrain: start from it, and skip the
     # cells whose box (footprint x height range) lies no nearer.
     best = reach
