@@ -93,9 +93,11 @@ def print_row(row: dict) -> None:
 LATTICE_RADIUS = 0.006
 
 
-def lattice_pile(tc, n_side: int, seed: int = 0, sleep_time: float | None = 0.3):
+def lattice_pile(tc, n_side: int, seed: int = 0, sleep: bool = True):
     """The pile of issue [2 of 6] (see the module's notes), its particles sleeping after
-    sleep_time (None: never): (scene, half width of the box)."""
+    sleeping.SLEEP_TIME if `sleep`: (scene, half width of the box)."""
+    from tai_coll.solvers.pairs.sleeping import SLEEP_TIME
+
     rng = np.random.default_rng(seed)
     r = LATTICE_RADIUS
     spacing = 2.2 * r
@@ -108,7 +110,7 @@ def lattice_pile(tc, n_side: int, seed: int = 0, sleep_time: float | None = 0.3)
     for point, normal in [((0, 0, 0), (0, 1, 0)), ((-half, 0, 0), (1, 0, 0)), ((half, 0, 0), (-1, 0, 0)),
                           ((0, 0, -half), (0, 0, 1)), ((0, 0, half), (0, 0, -1))]:
         scene.add_collider(tc.Plane(point=point, normal=normal), material=material)
-    scene.enable_particle_collisions(material=material, sleep_time=sleep_time)
+    scene.enable_particle_collisions(material=material, sleep_time=SLEEP_TIME if sleep else None)
     scene.add_particles(positions=x, radius=r)
     return scene, half
 

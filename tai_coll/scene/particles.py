@@ -11,6 +11,8 @@ import taichi as ti
 from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs
 
 QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance", "rest", "anchor")
+#: Every array the store keeps per particle, in the order of _stored_arrays and _permute's arguments.
+STORED = QUANTITIES + ("clearance", "ids")
 
 
 @ti.kernel
@@ -61,8 +63,7 @@ def _spin_array(capacity: int):
 
 
 def _stored_arrays(capacity: int) -> tuple:
-    """x, v, mass, radius, flags, allowance, rest, anchor, clearance, ids: every array the store
-    keeps per particle."""
+    """A fresh set of the STORED arrays."""
     return (ti.Vector.ndarray(3, float, shape=capacity), ti.Vector.ndarray(3, float, shape=capacity),
             ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity),
             ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity),
@@ -111,6 +112,14 @@ class ParticleStore:
         self._spin_args = None
         self._allocate(max(int(capacity), 1))
 
+    def _stored(self) -> tuple:
+        """The STORED arrays, in that order."""
+        return tuple(getattr(self, name) for name in STORED)
+
+    def _set_stored(self, arrays):
+        for name, array in zip(STORED, arrays, strict=True):
+            setattr(self, name, array)
+
     def _quantities(self) -> tuple:
         return QUANTITIES + (("w",) if self.w is not None else ())
 
@@ -125,7 +134,7 @@ class ParticleStore:
     def _allocate(self, capacity: int):
         old = {name: self.read(name) for name in self._quantities()} if self.count else None
         # ids: the public index of the particle in each slot
-        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids) = _stored_arrays(capacity)
+        self._set_stored(_stored_arrays(capacity))
         self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
         self.permuted = False  # whether the storage order may differ from the public order
         self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
@@ -225,9 +234,9 @@ class ParticleStore:
             raise ValueError(f"permute: n must be the particle count {self.count}; got {n}")
         if self._spare is None:
             self._spare = _stored_arrays(self.capacity)
-        current = (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids)
+        current = self._stored()
         _permute(order, n, *current, *self._spare)
-        (self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids) = self._spare
+        self._set_stored(self._spare)
         self._spare = current
         if self.w is not None:
             if self._w_spare is None:
@@ -266,7 +275,7 @@ class ParticleStore:
     def arrays(self) -> list:
         """Every array the store holds (for memory accounting): the quantities, the second set
         `permute` writes into, and the angular velocities with theirs."""
-        held = [self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor, self.clearance, self.ids]
+        held = list(self._stored())
         held += list(self._spare or ())
         if self.w is not None:
             held += [self.w] + ([self._w_spare] if self._w_spare is not None else [])

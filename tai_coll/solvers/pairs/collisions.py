@@ -75,7 +75,6 @@ class ParticleCollisions:
         self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
         self._law = None  # (key, the DEM law's argument pack)
         self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
-        self._slept = False  # whether particles may have fallen asleep (sleeping.py)
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
 
     def __getattr__(self, name):
@@ -173,7 +172,7 @@ class ParticleCollisions:
         law = dict(restitution=m.restitution, friction=m.friction, wet_friction=m.wet_friction,
                    wet_law=WET_LAWS["linear"])
         placed = self._place(particles)
-        sleep = self._sleep = self._may_sleep(world)
+        sleep = self._may_sleep(world)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         contacts = self._predict_and_list(world, dt, settings.margin_length(r_max), settings.skin_length(r_max))
@@ -216,11 +215,11 @@ class ParticleCollisions:
     def _may_sleep(self, world) -> bool:
         """Whether particles may sleep this substep (sleeping.py): sleeping is on, and no
         collider is kinematic (its motion may take away a sleeping particle's support without
-        touching it); otherwise every particle that slept is woken."""
+        touching it); otherwise every particle that may have slept is woken. Sets self._sleep."""
         sleep = self.settings.sleep_time is not None and not world.colliders.has_kinematic
-        if not sleep and self._slept:
+        if not sleep and self._sleep:
             world.particles.wake_all()
-        self._slept = sleep
+        self._sleep = sleep
         return sleep
 
     def _predict_and_list(self, world, dt: float, reach: float, skin: float):

@@ -34,7 +34,7 @@ from ... import runtime
 from ...response.laws import TINY, pair_normal, respond
 from ...types import ARRAY, GridArgs, ListArgs, ParticleArgs, ivec3, vec3
 from .placement import placed_overlap
-from .sleeping import WOKEN, is_asleep, shares, wakes
+from .sleeping import is_asleep, shares, wake_pair
 
 COLOURS = 8
 # A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
@@ -114,7 +114,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit
         the end of the substep carries approaching velocity into the next.
     sleep: some particles may be asleep (sleeping.py): a sleeping particle takes no part of a
         pair's change (sleeping.shares), two sleeping ones are skipped, and the ELASTIC pass
-        wakes a sleeping particle that a moving awake one is near (sleeping.wakes, wake_speed).
+        wakes a sleeping particle that a moving awake one is near (sleeping.wake_pair, wake_speed).
     Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
     Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
     CPU): the units running at once share no particle. Divisions by the pair's mass sum are
@@ -155,12 +155,8 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit
                         if ti.static(sleep):
                             asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
                             if ti.static(mode == ELASTIC):
-                                if asleep_j != 0 and asleep_i == 0 and wakes(particles.rest[i], vi, d2, reach, wake_speed):
-                                    particles.rest[j] = WOKEN
-                                    asleep_j = 0
-                                elif asleep_i != 0 and asleep_j == 0 and wakes(particles.rest[j], v_test[j], d2, reach, wake_speed):
-                                    particles.rest[i] = WOKEN
-                                    asleep_i = 0
+                                asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
+                                                               d2, reach, wake_speed)
                         if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
                                 ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
                             nrm, dist = pair_normal(xi, xj, i, j)

@@ -37,7 +37,8 @@ import taichi as ti
 
 from ...types import ACTIVE, ARRAY, ParticleArgs, vec3
 
-#: Default sleep_time (s).
+#: A sleep_time (s) that suits piles of millimetre to centimetre particles (sleeping is off
+#: by default: see docs/physics.md 5.3.1).
 SLEEP_TIME = 0.3
 #: Default sleep_drift: how far (in its radius) a particle may stray from its anchor and still
 #: count as at rest (a particle wedged in a pile trembles by about a percent of its radius).
@@ -81,6 +82,20 @@ def wakes(rest_awake, v_awake: vec3, d2, reach, wake_speed):
     return (d2 < near * near) & (rest_awake == 0.0) & (v_awake.norm_sqr() > wake_speed * wake_speed)
 
 
+@ti.func
+def wake_pair(particles: ti.template(), i, j, asleep_i, asleep_j, v_i: vec3, v_j: vec3, d2, reach, wake_speed):
+    """Wake the sleeping one of pair (i, j) if the other wakes it (see `wakes`; v_i, v_j: their
+    velocities at the start of the substep, d2: their centres' squared distance); returns the
+    pair's sleep flags after."""
+    if asleep_j != 0 and asleep_i == 0 and wakes(particles.rest[i], v_i, d2, reach, wake_speed):
+        particles.rest[j] = WOKEN
+        asleep_j = 0
+    elif asleep_i != 0 and asleep_j == 0 and wakes(particles.rest[j], v_j, d2, reach, wake_speed):
+        particles.rest[i] = WOKEN
+        asleep_i = 0
+    return asleep_i, asleep_j
+
+
 @ti.kernel
 def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity: vec3, dt: float,
                 sleep_time: float, sleep_drift: float):
@@ -119,17 +134,3 @@ def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity
                     rest_i = 0.0
                     particles.anchor[i] = xi
                 particles.rest[i] = rest_i
-
-
-@ti.kernel
-def _count_asleep(particles: ParticleArgs, out: ARRAY):
-    for i in range(particles.count):
-        if particles.flags[i] == ACTIVE and particles.rest[i] < 0.0:
-            out[0] += 1
-
-
-def count_asleep(particles, work) -> int:
-    """How many particles sleep now; work: a one-element i32 array."""
-    work.fill(0)
-    _count_asleep(particles.args, work)
-    return int(work[0])
