@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 SCENES = sorted((Path(__file__).resolve().parents[1] / "scenes").glob("*.py"))
-HEAVY = {"avalanche"}  # seconds of simulation on their own (1500 particles, 3600 substeps): marked slow
+HEAVY = {"avalanche", "random_pour"}  # a minute or more on their own (thousands of particles, in contact): slow
 
 
 def load(path: Path):

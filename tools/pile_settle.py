@@ -16,7 +16,7 @@ for a while, its state measured every `--every` simulated seconds:
 
 `--lattice N` instead builds the pile of issue [2 of 6]: N^3 particles of radius 6 mm on a
 lattice at 2.2 r (jitter 0.1 r, no overlap) in a box of planes as wide as the lattice, e = 0.3,
-mu = 0.5, the default Scene and solver with sleep_time=0.3 (N = 22: 10,648 particles; the promise at 2 s: speeds
+mu = 0.5, the default Scene and solver (N = 22: 10,648 particles; the promise at 2 s: speeds
 p99 <= 5 mm/s, max <= 20 mm/s, mean overlap < 2 % of the radius).
 
 Prints one line per measurement and writes them all as JSON (default

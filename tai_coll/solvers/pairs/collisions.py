@@ -181,7 +181,11 @@ class ParticleCollisions:
         self.v_start.copy_from(particles.v)
         if sleep:
             self.delta.copy_from(particles.x)  # x(t), for update_rest (Gauss-Seidel leaves delta free)
-        if not self._velocity_pass(particles, dt, law, elastic=True) and settings.method == "jacobi":
+        # (the contact passes' velocities include this substep's gravity, which a sleeping
+        # particle's lack: a particle resting on one closes in on it by |g| dt)
+        wake_speeds = (settings.wake_speed, settings.wake_speed + dt * math.hypot(*world.gravity))
+        if not self._velocity_pass(particles, dt, law, elastic=True, wake_speed=wake_speeds[0]) and \
+                settings.method == "jacobi":
             self._counts.reverse()  # (it counted the contacts all the same)
         #    ... and the colliders' own scheme (its elastic pass included) on the candidates
         solver.resolve_candidates(world, dt, self.x1, self.v1, store_state=False)
@@ -190,7 +194,7 @@ class ParticleCollisions:
         #    be the same); likewise a projection pass that finds no overlap.
         contact_law = dict(law, restitution=0.0)
         for _ in range(settings.iterations):
-            if not self._velocity_pass(particles, dt, contact_law, elastic=False):
+            if not self._velocity_pass(particles, dt, contact_law, elastic=False, wake_speed=wake_speeds[1]):
                 break
             solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=False)
         # 5. projection passes on positions (the first also takes up to max_push_speed * dt of the
@@ -203,7 +207,8 @@ class ParticleCollisions:
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
             gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
-                                     self.changed, self.x1, self.v1, sleep=sleep)
+                                     self.changed, self.x1, self.v1,
+                                     wake_speed=wake_speeds[1] if sleep else None)
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = self._counts[0]
@@ -251,16 +256,16 @@ class ParticleCollisions:
         self.lists.built((particles.edits,) + key[1:])
         return self.grid.touching
 
-    def _velocity_pass(self, particles, dt: float, law: dict, elastic: bool) -> bool:
-        """One velocity pass (elastic: on v(t), else a contact pass on the candidates' velocities);
-        returns whether any pair approached."""
+    def _velocity_pass(self, particles, dt: float, law: dict, elastic: bool, wake_speed: float) -> bool:
+        """One velocity pass (elastic: on v(t), else a contact pass on the candidates' velocities;
+        wake_speed: m/s, see sleeping.wakes); returns whether any pair approached."""
         v_test = self.v_start if elastic else self.v1  # the velocities the law acts on
         if self.settings.method == "gauss-seidel":
             # the elastic pass is not over-relaxed: an isolated pair bounces with e exactly
             gauss_seidel.velocity_pass(elastic, particles.args, self.grid.args, self.grid.lists, law,
                                        1.0 if elastic else self.settings.relaxation, dt, self.changed,
                                        v_test, self.x1, self.v1,
-                                       wake_speed=self.settings.wake_speed if self._sleep else None)
+                                       wake_speed=wake_speed if self._sleep else None)
         else:
             jacobi.velocity_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
                                  v_test=v_test, **law, relaxation=self.settings.relaxation, dt=dt,

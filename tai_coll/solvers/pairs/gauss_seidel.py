@@ -113,8 +113,9 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
         the end of the substep carries approaching velocity into the next.
     sleep: some particles may be asleep (sleeping.py): a sleeping particle takes no part of a
-        pair's change (sleeping.shares), two sleeping ones are skipped, and the ELASTIC pass
-        wakes a sleeping particle that a moving awake one is near (sleeping.wake_pair, wake_speed).
+        pair's change (sleeping.shares), two sleeping ones are skipped; the velocity passes
+        (ELASTIC, CONTACT, SETTLE) wake a sleeping particle that a moving or just-woken one
+        nears (sleeping.wake_pair; wake_speed: that pass's threshold).
     Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
     Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
     CPU): the units running at once share no particle. Divisions by the pair's mass sum are
@@ -154,9 +155,9 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit
                         asleep_j = 0
                         if ti.static(sleep):
                             asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
-                            if ti.static(mode == ELASTIC):
+                            if ti.static(mode != PROJECTION):
                                 asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
-                                                               d2, reach, wake_speed)
+                                                               d, d2, reach, wake_speed)
                         if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
                                 ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
                             nrm, dist = pair_normal(xi, xj, i, j)
@@ -234,10 +235,11 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
           push_distance=0.0, wake_speed=wake_speed or 0.0, changed=changed, v_test=v_test, x1=x1, v1=v1)
 
 
-def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, sleep: bool = False):
+def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, wake_speed: float | None = None):
     """A velocity pass at the final positions, positions unchanged; see _pass."""
-    _pass(mode=SETTLE, placed=False, sleep=sleep, unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles,
-          **law, relaxation=1.0, dt=dt, push_distance=0.0, wake_speed=0.0, changed=changed, v_test=v1, x1=x1, v1=v1)
+    _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, unit_bits=unit_bits(), grid=grid, lists=lists,
+          particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0, wake_speed=wake_speed or 0.0,
+          changed=changed, v_test=v1, x1=x1, v1=v1)
 
 
 def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed: bool, push_distance: float,

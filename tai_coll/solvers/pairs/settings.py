@@ -11,7 +11,7 @@ import numpy as np
 
 from ... import validate
 from ...materials import Material
-from .sleeping import SLEEP_DRIFT, WAKE_SPEED
+from .sleeping import SLEEP_DRIFT, SLEEP_TIME, WAKE_SPEED
 
 # How the passes visit the pairs, and the defaults of each: (contact passes, projection passes,
 # relaxation). Gauss-Seidel converges in fewer passes (gauss_seidel.py; docs/design-notes.md
@@ -78,14 +78,14 @@ class PairSettings:
         old behaviour, for tests of the laws on chosen overlaps).
     sleep_time: s; a particle that stays within sleep_drift of its radius of where it came to
         rest for this long, held by its contacts, falls asleep: it stops and does not move
-        until something wakes it (docs/physics.md 5.4), so a pile comes to rest instead of
-        trembling at the speed gravity adds in a substep. None (default): no sleeping; 0.3
-        suits piles of millimetre to centimetre particles. Gauss-Seidel only. (Not yet on by
-        default: an impact wakes only the particles it touches, the sleeping pile beyond is
-        rigid, and a particle pressed between them can end deep in it.)
+        until something wakes it (docs/physics.md 5.3.1), so a pile comes to rest instead of
+        trembling at the speed gravity adds in a substep. "auto" (default): 0.3 s with
+        Gauss-Seidel, which suits piles of millimetre to centimetre particles, and no sleeping
+        with Jacobi (which has none); None: no sleeping.
     sleep_drift: that distance, as a fraction of the particle's radius (default 0.3).
-    wake_speed: m/s; an awake particle that moves faster than this wakes the sleeping ones it
-        nears (default 0.05, for particles of millimetres to centimetres).
+    wake_speed: m/s; an awake particle that closes in on a sleeping one faster than this, or
+        moves near it that fast, wakes it (default 0.05, for particles of millimetres to
+        centimetres); slower, it meets the sleeping one as a wall.
     margin, skin: the old, dimensionless forms of contact_margin and verlet_skin (fractions of
         the largest particle radius), kept with a DeprecationWarning.
     """
@@ -101,7 +101,7 @@ class PairSettings:
     tangential_springs: bool = False
     tangential_ratio: float = TANGENTIAL_RATIO
     max_push_speed: float = MAX_PUSH_SPEED
-    sleep_time: float | None = None
+    sleep_time: float | str | None = "auto"
     sleep_drift: float = SLEEP_DRIFT
     wake_speed: float = WAKE_SPEED
     margin: float | None = None
@@ -130,7 +130,11 @@ class PairSettings:
         put("tangential_ratio", validate.real("tangential_ratio", self.tangential_ratio, low=0.0, low_open=True))
         if self.max_push_speed != math.inf:  # (inf: placed overlap is a collision like any other)
             put("max_push_speed", validate.real("max_push_speed", self.max_push_speed, low=0.0, low_open=True))
-        if self.method != "gauss-seidel" and self.sleep_time is not None:
+        if isinstance(self.sleep_time, str):
+            if self.sleep_time != "auto":
+                raise ValueError(f'sleep_time must be "auto", None or seconds; got {self.sleep_time!r}')
+            put("sleep_time", SLEEP_TIME if self.method == "gauss-seidel" else None)
+        elif self.method != "gauss-seidel" and self.sleep_time is not None:
             raise ValueError(f"sleep_time: particles sleep with method='gauss-seidel' only; got "
                              f"{self.sleep_time!r} with method={self.method!r} (give None)")
         put("sleep_time", validate.real("sleep_time", self.sleep_time, low=0.0, low_open=True, allow_none=True))

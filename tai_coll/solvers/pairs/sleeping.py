@@ -17,17 +17,23 @@ floor and a pile comes to rest from the bottom up; two sleeping particles have n
 resolve.
 
 A sleeping particle wakes
-- when an awake particle within WAKE_REACH (r_i + r_j) of it is moving: its rest time is zero
-  (it left its ball in the last substep, or flies) and it is faster than `wake_speed`:
-  something hits the sleeping one, or what it rests on falls away (falling, it passes the wake
-  speed while still that near). The speed keeps a particle wedged among sleeping ones, which
-  the passes shift by a fraction of a millimetre now and then, from waking them all again;
+- when an awake particle within WAKE_REACH (r_i + r_j) of it is moving, its rest time zero (it
+  left its ball in the last substep, or flies), faster than `wake_speed`: something comes at
+  it, or what it rests on falls away (falling, it passes the wake speed while still that near);
+- when a particle woken in this substep closes in on it faster than `wake_speed`: checked in
+  every velocity pass with that pass's velocities, so that an impact goes on through the
+  sleeping particles it reaches within the substep;
 - when a collider changes it (the collider pass gives it a velocity);
 - when the host writes the particle state (set_positions, set_velocities, ...) or gravity
   changes; and particles do not sleep while the scene has kinematic colliders (their motion
   may take a support away without touching the particle).
+An awake particle at rest (rest time above zero) wakes nothing: the passes shift a particle
+wedged among sleeping ones by a fraction of a millimetre now and then, at tens of mm/s, which
+would wake them all again. So a push passed on through particles at rest meets a sleeping one
+as a wall: that part of the exchange does not conserve momentum (a row of 8 touching, 7 of
+them asleep, hit at 1 m/s: about half of the momentum goes on; docs/design-notes.md).
 A particle woken by a neighbour keeps its anchor with a rest time just above zero: it sleeps
-again after sleep_time unless it moves, and it wakes others only if it does.
+again after sleep_time unless it moves.
 
 ParticleStore.rest holds each particle's rest time (s), negative while asleep, and
 ParticleStore.anchor its anchor.
@@ -74,23 +80,28 @@ def shares(mi, mj, asleep_i, asleep_j):
 
 
 @ti.func
-def wakes(rest_awake, v_awake: vec3, d2, reach, wake_speed):
-    """Whether an awake particle with rest time rest_awake and velocity v_awake, its centre
-    sqrt(d2) from a sleeping one's (reach: r_i + r_j), wakes it: it is moving (rest time zero)
-    faster than wake_speed, and that near."""
+def wakes(rest_awake, v_awake: vec3, toward: vec3, d2, reach, wake_speed):
+    """Whether an awake particle with rest time rest_awake and velocity v_awake wakes a
+    sleeping one whose centre is `toward` from its own (d2 = |toward|^2; reach: r_i + r_j):
+    within WAKE_REACH * reach, it is moving (rest time zero) faster than wake_speed, or it was
+    woken in this substep (rest time WOKEN) and closes in on the sleeping one that fast."""
     near = WAKE_REACH * reach
-    return (d2 < near * near) & (rest_awake == 0.0) & (v_awake.norm_sqr() > wake_speed * wake_speed)
+    closing = v_awake.dot(toward)
+    fast = v_awake.norm_sqr() > wake_speed * wake_speed
+    return (d2 < near * near) & (((rest_awake == 0.0) & fast) |
+                                 ((rest_awake <= WOKEN) & (closing > 0.0) &
+                                  (closing * closing > wake_speed * wake_speed * d2)))
 
 
 @ti.func
-def wake_pair(particles: ti.template(), i, j, asleep_i, asleep_j, v_i: vec3, v_j: vec3, d2, reach, wake_speed):
+def wake_pair(particles: ti.template(), i, j, asleep_i, asleep_j, v_i: vec3, v_j: vec3, d: vec3, d2, reach,
+              wake_speed):
     """Wake the sleeping one of pair (i, j) if the other wakes it (see `wakes`; v_i, v_j: their
-    velocities at the start of the substep, d2: their centres' squared distance); returns the
-    pair's sleep flags after."""
-    if asleep_j != 0 and asleep_i == 0 and wakes(particles.rest[i], v_i, d2, reach, wake_speed):
+    velocities in the pass, d = x_i - x_j, d2 = |d|^2); returns the pair's sleep flags after."""
+    if asleep_j != 0 and asleep_i == 0 and wakes(particles.rest[i], v_i, -d, d2, reach, wake_speed):
         particles.rest[j] = WOKEN
         asleep_j = 0
-    elif asleep_i != 0 and asleep_j == 0 and wakes(particles.rest[j], v_j, d2, reach, wake_speed):
+    elif asleep_i != 0 and asleep_j == 0 and wakes(particles.rest[j], v_j, d, d2, reach, wake_speed):
         particles.rest[i] = WOKEN
         asleep_i = 0
     return asleep_i, asleep_j
