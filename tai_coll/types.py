@@ -52,7 +52,7 @@ TABLE = ti.types.ndarray(ndim=2)
 
 #: The particle store (scene/particles.py): count, positions x (m), velocities v (m/s),
 #: mass (kg), radius (m), status flags (ACTIVE, ...), overlap allowances (m), rest times (s;
-#: negative: asleep) and rest anchors (m; docs/physics.md 5.4), and the event counters (STAT_...).
+#: negative: asleep) and rest anchors (m; docs/physics.md 5.3.1), and the event counters (STAT_...).
 ParticleArgs = ti.types.argpack(count=ti.i32, x=ARRAY, v=ARRAY, mass=ARRAY, radius=ARRAY, flags=ARRAY,
                                 allowance=ARRAY, rest=ARRAY, anchor=ARRAY, stats=ARRAY)
 

@@ -74,9 +74,9 @@ def _stored_arrays(capacity: int) -> tuple:
 class ParticleStore:
     """Positions x (m), velocities v (m/s), mass (kg), radius (m), a status flag, an overlap
     allowance (m: overlap with its neighbours that a particle was given when it was placed,
-    removed by positions at a capped speed, docs/physics.md 5) a rest time (s: how long the
+    removed by positions at a capped speed, docs/physics.md 5), a rest time (s: how long the
     particle has stayed near its anchor, the position where it came to rest, held by its
-    contacts; negative: asleep, docs/physics.md 5.4);
+    contacts; negative: asleep, docs/physics.md 5.3.1);
     angular velocities w (rad/s) once a solver that spins particles asks for them
     (enable_spin)."""
 
@@ -223,7 +223,7 @@ class ParticleStore:
 
     def wake_all(self):
         """Every sleeping particle awake, every rest time back to zero (the state was written
-        from the host, gravity changed, ...: docs/physics.md 5.4)."""
+        from the host, gravity changed, ...: docs/physics.md 5.3.1)."""
         self.rest.fill(0.0)
 
     def permute(self, order, n: int):

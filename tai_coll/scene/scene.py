@@ -119,8 +119,9 @@ class Scene:
         DEM pairs only: friction by a spring per contact, Cundall and Strack, so static friction
         holds without creeping), tangential_ratio (2/7: k_t / k_n), max_push_speed (m/s, 0.5:
         overlap particles were placed with goes by positions at this speed) and, Gauss-Seidel
-        only, sleep_time (s, 0.3; None: no sleeping), sleep_drift (0.3 radii) and wake_speed
-        (m/s, 0.05): particles at rest that long fall asleep (docs/physics.md 5.4). With
+        only, sleep_time (s; "auto", the default: 0.3; None: no sleeping), sleep_drift (0.3
+        radii) and wake_speed (m/s, 0.05): particles at rest that long fall asleep
+        (docs/physics.md 5.3.1). With
         tc.PenaltySolver(spin=True) pairs also exchange torques: friction acts at the contact
         point and the material's rolling_friction resists rolling (a rolling spring per
         contact with tangential_springs). Returns the scene's ParticleCollisions (settings and
@@ -282,7 +283,7 @@ class Scene:
     @gravity.setter
     def gravity(self, value):
         self._world = dataclasses.replace(self._world, gravity=validate.vector3("gravity", value))
-        self._particles.wake_all()  # (what held a sleeping particle may no longer: docs/physics.md 5.4)
+        self._particles.wake_all()  # (what held a sleeping particle may no longer: docs/physics.md 5.3.1)
 
     @property
     def domain(self) -> tuple | None:
@@ -335,7 +336,7 @@ class Scene:
 
     def sleeping(self) -> np.ndarray:
         """Per particle, in the order they were added: whether it is asleep (at rest in a pile,
-        not moving until something wakes it; docs/physics.md 5.4)."""
+        not moving until something wakes it; docs/physics.md 5.3.1)."""
         return self._particles.read("rest") < 0.0
 
     def status(self) -> np.ndarray:

@@ -181,9 +181,11 @@ class ParticleCollisions:
         self.v_start.copy_from(particles.v)
         if sleep:
             self.delta.copy_from(particles.x)  # x(t), for update_rest (Gauss-Seidel leaves delta free)
-        # (the contact passes' velocities include this substep's gravity, which a sleeping
-        # particle's lack: a particle resting on one closes in on it by |g| dt)
-        wake_speeds = (settings.wake_speed, settings.wake_speed + dt * math.hypot(*world.gravity))
+        # the passes' wake thresholds (None: nobody sleeps): the elastic pass's, and the later
+        # passes', whose velocities include this substep's gravity, which a sleeping particle's
+        # lack (a particle resting on one closes in on it by |g| dt)
+        wake_speeds = ((settings.wake_speed, settings.wake_speed + dt * math.hypot(*world.gravity)) if sleep
+                       else (None, None))
         if not self._velocity_pass(particles, dt, law, elastic=True, wake_speed=wake_speeds[0]) and \
                 settings.method == "jacobi":
             self._counts.reverse()  # (it counted the contacts all the same)
@@ -207,8 +209,7 @@ class ParticleCollisions:
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
             gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
-                                     self.changed, self.x1, self.v1,
-                                     wake_speed=wake_speeds[1] if sleep else None)
+                                     self.changed, self.x1, self.v1, wake_speed=wake_speeds[1])
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = self._counts[0]
@@ -256,16 +257,17 @@ class ParticleCollisions:
         self.lists.built((particles.edits,) + key[1:])
         return self.grid.touching
 
-    def _velocity_pass(self, particles, dt: float, law: dict, elastic: bool, wake_speed: float) -> bool:
+    def _velocity_pass(self, particles, dt: float, law: dict, elastic: bool, wake_speed: float | None) -> bool:
         """One velocity pass (elastic: on v(t), else a contact pass on the candidates' velocities;
-        wake_speed: m/s, see sleeping.wakes); returns whether any pair approached."""
+        wake_speed: m/s, see sleeping.wakes; None while nobody sleeps); returns whether any pair
+        approached."""
         v_test = self.v_start if elastic else self.v1  # the velocities the law acts on
         if self.settings.method == "gauss-seidel":
             # the elastic pass is not over-relaxed: an isolated pair bounces with e exactly
             gauss_seidel.velocity_pass(elastic, particles.args, self.grid.args, self.grid.lists, law,
                                        1.0 if elastic else self.settings.relaxation, dt, self.changed,
                                        v_test, self.x1, self.v1,
-                                       wake_speed=wake_speed if self._sleep else None)
+                                       wake_speed=wake_speed)
         else:
             jacobi.velocity_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
                                  v_test=v_test, **law, relaxation=self.settings.relaxation, dt=dt,
