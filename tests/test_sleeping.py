@@ -1,4 +1,4 @@
-"""Sleeping particles (docs/physics.md 5.4): a pile comes to rest and stays still, with stored
+"""Sleeping particles (docs/physics.md 5.3.1): a pile comes to rest and stays still, with stored
 velocities that describe its motion; anything that moves near it, a change of gravity or a
 write of the state wakes it; a bounce or a drifting particle never sleeps."""
 
@@ -164,18 +164,22 @@ def sleeping_row(count):
     return scene
 
 
-def test_a_hit_on_a_sleeping_row_wakes_it_and_creates_nothing():
-    # A particle hits the end of a sleeping row at 1 m/s: the particles it reaches wake, nobody
-    # ends faster than the hit, no momentum appears. (How much goes on down the row depends on
-    # whether the end particle was woken in the substep of the hit: a particle at rest meets a
-    # sleeping one as a wall, see sleeping.py.)
+@pytest.mark.parametrize("start", [3.0, 2.15])
+def test_a_hit_on_a_sleeping_row_goes_on_into_it(start):
+    # A particle hits the end of a sleeping row at 1 m/s (from start radii away: woken early,
+    # the end particle is at rest again when the hit comes): the row wakes and takes the
+    # hitter's momentum on, nobody ends faster than the hit, no momentum appears. (Before a
+    # particle at rest handed on a hit, the end particle stopped it dead: nothing moved on.
+    # Part of it is still lost where the push slows below HIT_FACTOR * wake_speed: see
+    # sleeping.py.)
     scene = sleeping_row(8)
-    scene.add_particles(positions=[[-3 * R, R, 0.0]], velocities=[[1.0, 0.0, 0.0]], radius=R)
+    scene.add_particles(positions=[[-start * R, R, 0.0]], velocities=[[1.0, 0.0, 0.0]], radius=R)
     scene.step(3)
     v = scene.velocities()
-    assert not scene.sleeping()[[0, 8]].any()
+    assert not scene.sleeping().any()
+    assert v[8, 0] < 0.1  # the hitter gave its momentum away ...
+    assert v[:8, 0].sum() > 0.4  # ... to the row
     assert v[:, 0].sum() <= 1.0 + 1e-4 and np.abs(v).max() <= 1.0 + 1e-4
-    assert v[8, 0] < 0.5  # the hitter was stopped by the row
 
 
 def test_a_sleeping_row_falls_asleep_again_after_a_slow_push():
