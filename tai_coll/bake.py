@@ -29,7 +29,10 @@ def main(argv=None) -> int:
 
     import tai_coll as tc
 
-    tc.init(arch=args.arch, precision=args.precision, threads=args.threads)
+    try:
+        tc.init(arch=args.arch, precision=args.precision, threads=args.threads)
+    except (TypeError, ValueError) as error:
+        parser.exit(2, f"{parser.prog}: error: {error}\n")  # one line, argparse's status for bad options
     status = 0
     for path in args.meshes:
         try:

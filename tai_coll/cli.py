@@ -24,15 +24,20 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import logging
+import numbers
 import sys
+import tempfile
 import time
 import traceback
 from pathlib import Path
+
+from .runtime import MAX_THREADS
 
 ARCHS = ("cpu", "cuda", "vulkan", "auto")
 DEFAULT_FRAMES = 120
 DEFAULT_RES = (1280, 720)
 FRAME_PATTERN = "frame_{:05d}.png"
+MAX_FPS = 10000  # --fps must lie in (0, MAX_FPS)
 
 
 class UsageError(Exception):
@@ -100,14 +105,57 @@ def check_run_args(args):
         raise UsageError(f"scene file must be a Python script (.py): {path}")
     if args.frames is not None and args.frames < 1:
         raise UsageError(f"--frames must be >= 1; got {args.frames}")
-    if args.fps is not None and not (args.fps > 0 and args.fps < 1e4):
-        raise UsageError(f"--fps must be > 0; got {args.fps}")
-    if args.threads is not None and args.threads < 1:
-        raise UsageError(f"--threads must be >= 1; got {args.threads}")
+    if args.fps is not None and not 0 < args.fps < MAX_FPS:
+        raise UsageError(f"--fps must be > 0 and < {MAX_FPS}; got {args.fps:g}")
+    if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
+        raise UsageError(f"--threads must be from 1 to {MAX_THREADS}; got {args.threads}")
     args.resolution = parse_resolution(args.res) if args.res is not None else None
     if args.video is not None and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
         raise UsageError(f"--video must end in .mp4 or .gif; got {args.video}")
+    frame_dir, video_path = output_paths(args, path)
+    if frame_dir is not None:
+        check_writable("--out", frame_dir)
+    if video_path is not None:
+        if video_path.is_dir():
+            raise UsageError(f"--video: {video_path} is a folder, not a file")
+        check_writable("--video", video_path.parent)
     return path
+
+
+def output_paths(args, path: Path):
+    """(frame folder, video file) that `run` writes, each None when not written."""
+    if args.no_render:
+        return None, None
+    out = Path(args.out) if args.out else Path("out") / path.stem
+    frame_dir = None if args.no_frames else out
+    video_path = None if args.no_video else (Path(args.video) if args.video else out / f"{path.stem}.mp4")
+    return frame_dir, video_path
+
+
+def check_writable(option: str, folder: Path):
+    """UsageError unless `folder` exists or can be made, and a file can be written in it.
+    Tried for real (permission bits do not tell, e.g. for root under /proc), and undone:
+    folders made here are removed again, so a run that fails later leaves nothing behind."""
+    made = []
+    try:
+        missing = []
+        for part in (folder, *folder.parents):
+            if part.exists():
+                break
+            missing.append(part)
+        for part in reversed(missing):
+            part.mkdir()
+            made.append(part)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as error:
+        raise UsageError(f"{option}: cannot write in {folder}: {error.strerror or error}") from None
+    finally:
+        for part in reversed(made):
+            try:
+                part.rmdir()
+            except OSError:
+                pass
 
 
 # ----------------------------------------------------------------------------- scene scripts
@@ -174,18 +222,26 @@ def default_fps(scene) -> float:
     return round(fps, 3) if 1.0 <= fps <= 240.0 else 30.0
 
 
+def script_frames(module, path: Path) -> int:
+    """The script's FRAMES (default DEFAULT_FRAMES): an integer >= 1, else a UsageError."""
+    frames = getattr(module, "FRAMES", DEFAULT_FRAMES)
+    if isinstance(frames, bool) or not isinstance(frames, numbers.Integral) or frames < 1:
+        raise UsageError(f"{path}: FRAMES must be an integer >= 1 (or give --frames); got {frames!r}")
+    return int(frames)
+
+
 def run(args) -> int:
     path = check_run_args(args)
     import tai_coll as tc
 
     tc.init(arch=args.arch, threads=args.threads)
     module = load_script(path)
+    frames = args.frames if args.frames is not None else script_frames(module, path)
     scene = build_scene(module, path)
-    frames = args.frames if args.frames is not None else int(getattr(module, "FRAMES", DEFAULT_FRAMES))
     fps = args.fps if args.fps is not None else default_fps(scene)
     render = not args.no_render
     renderer = video = None
-    frame_dir = video_path = None
+    frame_dir, video_path = output_paths(args, path)
     if render:
         from .render import Renderer, VideoWriter, write_png
 
@@ -197,12 +253,9 @@ def run(args) -> int:
             renderer = Renderer(width=width, height=height, **settings)
         except (TypeError, ValueError) as error:
             raise UsageError(f"{path}: render_settings(): {error}") from None
-        out = Path(args.out) if args.out else Path("out") / path.stem
-        if not args.no_frames:
-            frame_dir = out
+        if frame_dir is not None:
             frame_dir.mkdir(parents=True, exist_ok=True)
-        if not args.no_video:
-            video_path = Path(args.video) if args.video else out / f"{path.stem}.mp4"
+        if video_path is not None:
             video_path.parent.mkdir(parents=True, exist_ok=True)
             video = VideoWriter(video_path, fps=fps)
 

@@ -3,12 +3,15 @@
 `init()` is the only place that calls `ti.init`. Every other module asks `ensure_init()`
 first, so using the API before `init()` starts the default arch ("auto"). Calling `init()`
 again with the same arguments does nothing; different arguments restart Taichi, and
-scenes built before then refuse to run (their fields belong to the old runtime).
+scenes built before then refuse every call (their fields belong to the old runtime:
+`check_generation`, applied to a class by `bound_to_runtime`).
 """
 
 from __future__ import annotations
 
 import ctypes
+import functools
+import inspect
 import numbers
 import platform
 from dataclasses import dataclass
@@ -18,6 +21,11 @@ import taichi as ti
 
 ARCHS = ("auto", "cpu", "gpu", "cuda", "vulkan", "metal")
 PRECISIONS = ("f32", "f64")
+# A fixed ceiling, the same on every machine: far above any core count in use, yet Taichi
+# starts that many CPU workers in well under a second (10**6 hangs and exhausts the
+# machine's threads).
+MAX_THREADS = 1024
+MAX_SEED = 2**31 - 1  # Taichi keeps its random seed in an int32 (2**31 and above: TypeError)
 
 
 @dataclass(frozen=True)
@@ -50,10 +58,10 @@ def _check_init_args(arch, precision, threads, seed):
     if threads is not None:
         if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
             raise TypeError(f"threads must be an integer or None; got {threads!r}")
-        if threads < 1:
-            raise ValueError(f"threads must be >= 1; got {threads}")
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer; got {seed!r}")
+        if not 1 <= threads <= MAX_THREADS:
+            raise ValueError(f"threads must be from 1 to {MAX_THREADS}; got {threads}")
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed must be an integer from 0 to {MAX_SEED} (2**31 - 1); got {seed!r}")
     if precision == "f64" and arch in ("vulkan", "metal"):
         raise ValueError(f"precision='f64' is not supported on arch={arch!r}; use 'f32'")
 
@@ -110,8 +118,10 @@ def init(arch: str = "auto", *, precision: str = "f32", threads: int | None = No
         usable, else the CPU). A GPU arch that is not available falls back to the CPU, as
         Taichi does; `RuntimeInfo.arch` says where it landed.
     precision: "f32" (fast, the default) or "f64" (for tests and accuracy studies).
-    threads: CPU worker threads (None: all cores). Ignored on GPUs.
-    seed: Taichi's random seed.
+    threads: CPU worker threads, 1 to MAX_THREADS (None: all cores). Ignored on GPUs.
+    seed: Taichi's random seed, 0 to MAX_SEED.
+    Every argument is checked before the running Taichi is reset, so a bad call leaves it
+    as it was.
     """
     global _info, _generation
     _check_init_args(arch, precision, threads, seed)
@@ -120,6 +130,7 @@ def init(arch: str = "auto", *, precision: str = "f32", threads: int | None = No
         return _info
     if _info is not None:
         ti.reset()
+        _info = None  # the old runtime is gone even if the new one fails to start
     actual = _start(arch, precision, threads, seed)
     _generation += 1
     _info = RuntimeInfo(arch, actual, precision, threads, seed, _generation)
@@ -147,3 +158,30 @@ def check_generation(generation: int, what: str = "this object") -> None:
         raise RuntimeError(
             f"{what} was built before tai_coll.init() restarted Taichi with other arguments; "
             "its fields are gone. Build it again after the last init().")
+
+
+def bound_to_runtime(cls):
+    """Class decorator for objects whose Taichi arrays belong to the runtime that was current
+    when they were built (`self._runtime`, a RuntimeInfo): every public method and every
+    property setter first raises check_generation's RuntimeError once tc.init has
+    restarted Taichi, instead of a Taichi internal error from a dead array. Property getters
+    are left alone, so a stale object still prints and reports its host-side state; a getter
+    that reads Taichi arrays should be a method."""
+    what = f"this {cls.__name__}"
+
+    def guarded(function):
+        @functools.wraps(function)
+        def call(self, *args, **kwargs):
+            check_generation(self._runtime.generation, what)
+            return function(self, *args, **kwargs)
+
+        return call
+
+    for name, member in list(vars(cls).items()):
+        if name.startswith("_"):
+            continue
+        if isinstance(member, property) and member.fset is not None:
+            setattr(cls, name, member.setter(guarded(member.fset)))
+        elif inspect.isfunction(member):
+            setattr(cls, name, guarded(member))
+    return cls

@@ -89,6 +89,11 @@ def test_run_without_rendering_and_as_gif(tmp_path):
     (["--res", "wide"], "--res must be WIDTHxHEIGHT"),
     (["--frames", "0"], "--frames must be >= 1"),
     (["--video", "clip.avi"], "--video must end in .mp4 or .gif"),
+    (["--fps", "20000"], "--fps must be > 0 and < 10000; got 20000"),
+    (["--fps", "0"], "--fps must be > 0 and < 10000; got 0"),
+    (["--fps", "nan"], "--fps must be > 0 and < 10000; got nan"),
+    (["--threads", "0"], "--threads must be from 1 to 1024; got 0"),
+    (["--threads", "5000"], "--threads must be from 1 to 1024; got 5000"),
 ])
 def test_bad_arguments_exit_2_with_one_line(tmp_path, args, reason):
     path = script(tmp_path, TINY_SCENE)
@@ -96,6 +101,44 @@ def test_bad_arguments_exit_2_with_one_line(tmp_path, args, reason):
     assert out.returncode == 2
     assert out.stderr.strip().splitlines() == [f"tai-coll: error: {out.stderr.split('error: ', 1)[1].strip()}"]
     assert reason in out.stderr
+    assert "Starting on arch" not in out.stdout + out.stderr  # refused before Taichi started
+
+
+def tree(folder: Path) -> list:
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize("option, target", [
+    ("--out", "a_file/frames"),          # under a regular file
+    ("--out", "a_file"),                 # a regular file itself
+    ("--out", "a_file/deeper/frames"),
+    ("--video", "a_file/clip.mp4"),
+    ("--video", "a_folder.mp4"),         # a folder where the file should go
+    ("--out", "/proc/nope"),             # a folder no one can make
+    ("--video", "/proc/nope/clip.gif"),
+])
+def test_outputs_that_cannot_be_written_exit_2_before_taichi_starts(tmp_path, option, target):
+    if target.startswith("/proc") and not Path("/proc/self").exists():
+        pytest.skip("no /proc here")
+    path = script(tmp_path, TINY_SCENE)
+    (tmp_path / "a_file").write_text("not a folder")
+    (tmp_path / "a_folder.mp4").mkdir()
+    before = tree(tmp_path)
+    out = tai_coll("run", path, option, target if target.startswith("/") else tmp_path / target, "--arch", "cpu",
+                   cwd=tmp_path)
+    assert out.returncode == 2, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and f"tai-coll: error: {option}" in out.stderr
+    assert "Starting on arch" not in out.stdout + out.stderr
+    assert tree(tmp_path) == before  # nothing made, nothing half-written
+
+
+@pytest.mark.parametrize("frames", ["-5", "0", "2.5", "'ten'"])
+def test_a_script_with_a_bad_FRAMES_exits_2_with_one_line(tmp_path, frames):
+    path = script(tmp_path, TINY_SCENE.replace("FRAMES = 3", f"FRAMES = {frames}"))
+    out = tai_coll("run", path, "--no-render", "--arch", "cpu")
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.strip().splitlines() == [f"tai-coll: error: {path}: FRAMES must be an integer >= 1 (or give "
+                                               f"--frames); got {frames}"]
 
 
 def test_bad_scene_files(tmp_path):
@@ -163,3 +206,9 @@ def test_bake_is_the_mesh_baker_when_installed():
         assert out.returncode == 2 and "bake needs tai_coll's mesh colliders" in out.stderr
     else:
         assert out.returncode == 0 and "MESH" in out.stdout, out.stderr
+
+
+def test_bake_refuses_a_bad_thread_count_in_one_line():
+    out = tai_coll("bake", "missing.stl", "--threads", "5000")
+    assert out.returncode == 2
+    assert "threads must be from 1 to" in out.stderr and "Traceback" not in out.stderr

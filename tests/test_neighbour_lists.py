@@ -114,16 +114,15 @@ def test_particle_overlap_matches_brute_force():
 
 
 def test_full_neighbour_lists_are_warned_about_once():
-    # One particle ten times larger stretches everyone's reach (margin x the largest radius):
-    # a cluster of small ones on a 1.05 mm lattice sees about 150 others within reach.
+    # A contact margin of four radii: a cluster on a 10.5 mm lattice sees about 100 others
+    # within reach.
     import warnings
 
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=2)
-    pairs = scene.enable_particle_collisions()
+    pairs = scene.enable_particle_collisions(contact_margin=0.02)
     g = 0.0105 * np.arange(8)
     X, Y, Z = np.meshgrid(g, g, g, indexing="ij")
     scene.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=0.005)
-    scene.add_particles(positions=[[5.0, 0.0, 0.0]], radius=0.1)
     with pytest.warns(RuntimeWarning, match=r"neighbour lists were full .* more than 48 others"):
         scene.step()
     dropped = pairs.neighbour_overflow
@@ -132,10 +131,12 @@ def test_full_neighbour_lists_are_warned_about_once():
         warnings.simplefilter("error")
         scene.step()  # once per scene
     assert pairs.neighbour_overflow > dropped
-    # radii of one size: no list is full, nothing to warn about
+    # the default margin (a quarter of the smaller radius of each pair): no list is full,
+    # nothing to warn about, even beside a particle twenty times larger
     calm = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1e-4, substeps=2)
     calm.enable_particle_collisions()
     calm.add_particles(positions=np.stack([X.ravel(), Y.ravel(), Z.ravel()], 1), radius=0.005)
+    calm.add_particles(positions=[[0.037, 0.2, 0.037]], radius=0.1)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         calm.step()

@@ -204,6 +204,14 @@ SHEAR = np.array([[1.0, 0.2, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
     (lambda: tc.Capsule.from_endpoints((1, 2, 3), (1, 2, 3), radius=0.1), ValueError, "a and b"),
     (lambda: tc.Capsule.from_endpoints((0, 0, 0), (0, 1, 0), radius=0), ValueError, "radius"),
     (lambda: tc.rotation_matrix((0, 0, 0), 1.0), ValueError, "axis"),
+    (lambda: tc.rotation_matrix((0, NAN, 1), 1.0), ValueError, "axis"),
+    (lambda: tc.rotation_matrix((INF, 0, 0), 1.0), ValueError, "axis"),
+    (lambda: tc.rotation_matrix((1e300, 1e300, 0), 1.0), ValueError, "axis"),  # its length overflows
+    (lambda: tc.rotation_matrix((0, 1), 1.0), ValueError, "axis"),
+    (lambda: tc.rotation_matrix((0, 0, 1), NAN), ValueError, "angle"),
+    (lambda: tc.rotation_matrix((0, 0, 1), INF), ValueError, "angle"),
+    (lambda: tc.rotation_matrix((0, 0, 1), -INF), ValueError, "angle"),
+    (lambda: tc.rotation_matrix((0, 0, 1), "0.5"), TypeError, "angle"),
 ])
 def test_colliders_reject_bad_shapes(make, error, name, no_kernels):
     with pytest.raises(error, match=name):
@@ -235,7 +243,12 @@ def test_geometry_queries_reject_bad_points(call, error, name, no_kernels):
     (dict(arch="cpu", threads=0), ValueError, "threads"),
     (dict(arch="cpu", threads=-2), ValueError, "threads"),
     (dict(arch="cpu", threads=1.5), TypeError, "threads"),
+    (dict(arch="cpu", threads=10**6), ValueError, "threads must be from 1 to 1024"),
+    (dict(arch="cpu", threads=runtime.MAX_THREADS + 1), ValueError, "threads"),
     (dict(arch="cpu", seed=-1), ValueError, "seed"),
+    (dict(arch="cpu", seed=2**31), ValueError, "seed"),   # Taichi holds its seed in an int32
+    (dict(arch="cpu", seed=2**64), ValueError, "seed"),
+    (dict(arch="cpu", seed=1.0), ValueError, "seed"),
 ])
 def test_init_rejects_bad_arguments_without_restarting(kwargs, error, name, no_kernels):
     before = runtime.info()

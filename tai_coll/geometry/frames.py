@@ -8,18 +8,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import validate
+
 
 def skew(w: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
 
 
 def rotation_matrix(axis, angle: float) -> np.ndarray:
-    """Rotation by `angle` radians about `axis` (Rodrigues' formula)."""
-    axis = np.asarray(axis, dtype=np.float64)
-    norm = np.linalg.norm(axis)
-    if norm < 1e-12:
-        raise ValueError("axis must be a non-zero vector")
-    k = axis / norm
+    """Rotation by `angle` radians about `axis` (Rodrigues' formula): a finite, non-zero
+    axis and a finite angle, or ValueError naming the one that is not."""
+    # stored=False: the matrix is float64 on the host; only its entries, in [-1, 1], reach kernels
+    axis = validate.vector3("axis", axis, nonzero=True, stored=False)
+    angle = validate.real("angle", angle, stored=False)
+    return _rodrigues(axis, angle)
+
+
+def _rodrigues(axis: np.ndarray, angle: float) -> np.ndarray:
+    """rotation_matrix without the argument checks, for the rotations computed here."""
+    k = axis / np.linalg.norm(axis)
     K = skew(k)
     return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
 
@@ -29,7 +36,7 @@ def rotation_from_vector(rotvec: np.ndarray) -> np.ndarray:
     angle = float(np.linalg.norm(rotvec))
     if angle < 1e-15:
         return np.eye(3) + skew(rotvec)
-    return rotation_matrix(rotvec, angle)
+    return _rodrigues(rotvec, angle)
 
 
 def rotation_to_vector(R: np.ndarray) -> np.ndarray:
@@ -65,4 +72,4 @@ def align_y(direction: np.ndarray) -> np.ndarray:
     cos = float(np.dot(y, d))
     if sin < 1e-15:
         return np.eye(3) if cos > 0 else np.diag([1.0, -1.0, -1.0])  # identity or a half turn about x
-    return rotation_matrix(axis / sin, np.arctan2(sin, cos))
+    return _rodrigues(axis / sin, float(np.arctan2(sin, cos)))

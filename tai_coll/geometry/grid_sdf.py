@@ -17,11 +17,29 @@ the true distance (it stays safe for conservative advancement) and is continuous
 
 import math
 
+import numpy as np
 import taichi as ti
 
 from .marching import march_crossing
 
 vec3 = ti.math.vec3
+
+# The most nodes a grid may have (MeshSDF's bake, a numpy function's tc.Implicit): 128 MiB
+# of values in f64, and a cap on what a typo in resolution or voxel_size asks for.
+MAX_NODES = 256 ** 3
+
+
+def node_counts(span, h: float, *, name: str) -> np.ndarray:
+    """Nodes per axis (int64, at least 2) of a grid of spacing h over a box of `span` (m),
+    or ValueError naming `name` beyond MAX_NODES. Counted in floats first: a tiny h would
+    overflow an integer count and wrap around to a small grid."""
+    nodes = np.maximum(np.ceil(np.asarray(span, dtype=np.float64) / h - 1e-9) + 1, 2)
+    if np.prod(nodes) > MAX_NODES:
+        raise ValueError(f"{name}: the grid would have {np.prod(nodes):.4g} nodes "
+                         f"({' x '.join(f'{n:.6g}' for n in nodes)}), more than {MAX_NODES:,}; "
+                         "use a lower resolution or a larger voxel_size")
+    return nodes.astype(np.int64)
+
 
 # The trilinear interpolant of a 1-Lipschitz node function is sqrt(3)-Lipschitz at most
 # (each derivative is a convex combination of node differences, each <= 1 per cell).

@@ -15,11 +15,61 @@ trajectory crossing by conservative advancement (marching.py) stay safe.
 """
 
 import numpy as np
+import taichi as ti
+from taichi.lang.expr import Expr
 
 from .. import runtime, validate
 from . import kinds
 from .colliders import Collider
+from .grid_sdf import node_counts
 from .implicit_eval import GRADIENT_STEP, is_taichi_function, kind_for
+
+# What each Taichi function given to Implicit returns ("float", "vec3" or what else it
+# is), found once by compiling a call (_probe): kernels would otherwise fail deep inside
+# the crossing code (marching.py) on a function that returns, say, a vector.
+_RETURNS: dict = {}
+
+
+def _returned(value) -> str:
+    """What a Taichi function call returned, read at compile time."""
+    if isinstance(value, tuple):
+        return f"a tuple of {len(value)} values"
+    if not isinstance(value, Expr):
+        return f"a {type(value).__name__}"
+    if value.is_tensor():
+        shape = value.get_shape()
+        return "vec3" if shape == (3,) else f"a {'x'.join(map(str, shape))} {'vector' if len(shape) == 1 else 'matrix'}"
+    if value.is_struct():
+        return "a struct"
+    return "nothing" if str(value.ptr.get_rvalue_type()) == "unknown" else "float"
+
+
+def _record(function, value):
+    _RETURNS[function] = _returned(value)
+
+
+@ti.kernel
+def _probe(function: ti.template()):
+    value = function(ti.math.vec3(0.0))
+    ti.static(_record(function, value))
+
+
+def _check_returns(role: str, function, expected: str):
+    """TypeError naming `function` unless it compiles as f(p: vec3) returning `expected`."""
+    name = getattr(function, "__name__", repr(function))
+    signature = f"f(p: ti.math.vec3) -> {expected}"
+    if function not in _RETURNS:
+        runtime.ensure_init()
+        try:
+            _probe(function)
+        except ti.TaichiCompilationError as error:
+            raise TypeError(f"{role} {name} must be a Taichi function {signature}; calling it on a vec3 failed "
+                            f"to compile: {error}") from error
+    got = _RETURNS[function]
+    if got != expected:
+        what = "one float, the signed value" if expected == "float" else "a vec3, the gradient"
+        raise TypeError(f"{role} {name} must return {what} ({signature}); it returns {got}")
+
 
 class Implicit(Collider):
     """A solid bounded by the zero set of a user's function f (negative inside).
@@ -54,6 +104,9 @@ class Implicit(Collider):
                                  "on a grid); a Taichi function is evaluated exactly")
             if gradient is not None and not is_taichi_function(gradient):
                 raise TypeError("gradient must be a Taichi function (@ti.func) returning a vec3")
+            _check_returns("function", function, "float")
+            if gradient is not None:
+                _check_returns("gradient", gradient, "vec3")
             self.gradient_step = validate.real("gradient_step", gradient_step, low=0.0, low_open=True,
                                                allow_none=True)
             self.kind = kind_for(function, gradient)
@@ -83,19 +136,20 @@ class Implicit(Collider):
             h = float(np.max(extent)) / (resolution - 1)
         else:
             h = validate.real("voxel_size", voxel_size, low=0.0, low_open=True)
-        dims = np.maximum(np.ceil(extent / h - 1e-9).astype(np.int64) + 1, 2)
+        dims = node_counts(extent, h, name="resolution" if voxel_size is None else "voxel_size")
         middle = 0.5 * (lo + hi)
         self.origin = middle - 0.5 * h * (dims - 1)
         self.voxel_size = h
         axes = [self.origin[a] + h * np.arange(dims[a]) for a in range(3)]
-        nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        values = np.asarray(function(nodes), dtype=np.float64)
-        if values.shape not in ((len(nodes),), (len(nodes), 1)):
-            raise ValueError(f"function must return one value per point, shape ({len(nodes)},); "
+        points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        values = np.asarray(function(points), dtype=np.float64)
+        if values.shape not in ((len(points),), (len(points), 1)):
+            raise ValueError(f"function must return one value per point, shape ({len(points)},); "
                              f"got {values.shape}")
         if not np.all(np.isfinite(values)):
             raise ValueError("function returned NaN or infinite values inside bounds")
-        self.values = values.reshape(tuple(dims)) / self.lipschitz
+        self.values = validate.representable("function values / lipschitz",
+                                             values.reshape(tuple(dims)) / self.lipschitz)
         self.kind = kinds.SDF_GRID
         half = 0.5 * h * (dims - 1)
         corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half + middle

@@ -17,48 +17,61 @@ from .. import runtime, validate
 from . import bake, kinds
 from . import cache as sdf_cache
 from .colliders import Collider
+from .grid_sdf import MAX_NODES
 
 SIGNS = ("auto", "winding", "parity", "none")
 DEFAULT_RESOLUTION = 128
 DEFAULT_PADDING_CELLS = 4
-MAX_NODES = 256 ** 3
 
 
-def load_mesh(mesh_or_path):
+def load_mesh(mesh_or_path, name: str = "mesh"):
     """A trimesh.Trimesh from a Trimesh, a trimesh Scene, or a path trimesh loads
-    (OBJ, STL, PLY, GLB, ...). Raises FileNotFoundError for a missing file and ValueError
-    for a file trimesh cannot read or a mesh without triangles."""
+    (OBJ, STL, PLY, GLB, ...). Raises FileNotFoundError for a missing file and ValueError,
+    naming the argument `name` and the file, for a file trimesh cannot read or a mesh
+    without triangles."""
     import trimesh
 
     source = mesh_or_path
+    where = "the mesh"  # or the file it came from
     if isinstance(mesh_or_path, (str, os.PathLike)):
         path = os.fspath(mesh_or_path)
-        if not os.path.isfile(path):
+        if not os.path.exists(path):
             raise FileNotFoundError(f"mesh file not found: {path!r}")
+        if not os.path.isfile(path):
+            raise ValueError(f"{name}: {path!r} is not a file")
+        where = f"the mesh read from {path!r}"
         try:
             source = trimesh.load(path, force="mesh")
+        except ImportError as error:
+            # trimesh reaches for optional modules when a file is not what it expects (to
+            # guess the text encoding of bytes that are not UTF-8, say): not the user's
+            # missing package, an unreadable file
+            raise ValueError(f"{name}: could not read a mesh from {path!r}: not a "
+                             f"{os.path.splitext(path)[1] or 'mesh'} file trimesh can parse (it stopped for lack of "
+                             f"the optional module {error.name!r})") from None
         except Exception as error:  # trimesh raises many kinds for unreadable files
-            raise ValueError(f"could not read a triangle mesh from {path!r}: {error}") from None
+            raise ValueError(f"{name}: could not read a mesh from {path!r}: {error}") from None
     if isinstance(source, trimesh.Scene):
         geometry = [g for g in source.geometry.values() if isinstance(g, trimesh.Trimesh)]
         source = trimesh.util.concatenate(geometry) if geometry else None
     if not isinstance(source, trimesh.Trimesh):
-        raise (ValueError if isinstance(mesh_or_path, (str, os.PathLike)) else TypeError)(
-            f"mesh must be a trimesh.Trimesh or a path to a mesh file; got "
-            f"{type(mesh_or_path).__name__ if source is mesh_or_path else 'no triangles'}")
+        if source is not mesh_or_path:  # a file, or a trimesh Scene, without triangles
+            raise ValueError(f"{name}: {where} is empty: it has no triangles")
+        raise TypeError(f"{name} must be a trimesh.Trimesh or a path to a mesh file; got {type(mesh_or_path).__name__}")
     vertices = np.asarray(source.vertices, dtype=np.float64)
     faces = np.asarray(source.faces, dtype=np.int64)
     if len(faces) == 0 or len(vertices) == 0:
-        raise ValueError("the mesh is empty: it has no triangles")
+        raise ValueError(f"{name}: {where} is empty: it has no triangles")
     if faces.ndim != 2 or faces.shape[1] != 3:
-        raise ValueError(f"faces must be triangles, shape (F, 3); got {faces.shape}")
+        raise ValueError(f"{name}: faces must be triangles, shape (F, 3); got {faces.shape}")
     if not np.all(np.isfinite(vertices)):
-        raise ValueError("the mesh has NaN or infinite vertex coordinates")
+        raise ValueError(f"{name}: {where} has NaN or infinite vertex coordinates")
+    validate.representable(f"{name} vertices", vertices, underflow=False)
     if faces.min() < 0 or faces.max() >= len(vertices):
-        raise ValueError("the mesh's faces index vertices that do not exist")
+        raise ValueError(f"{name}: the faces of {where} index vertices that do not exist")
     extent = np.max(vertices[faces].reshape(-1, 3), axis=0) - np.min(vertices[faces].reshape(-1, 3), axis=0)
     if np.max(extent) <= 0:
-        raise ValueError("the mesh is degenerate: all its vertices coincide")
+        raise ValueError(f"{name}: {where} is degenerate: all its vertices coincide")
     return source, vertices, faces
 
 

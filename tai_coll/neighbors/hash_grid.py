@@ -21,6 +21,7 @@ from .. import sorting
 from ..types import ACTIVE, ARRAY, GridArgs, ListArgs, ivec3, vec3, vec4
 
 NEIGHBOUR_CAPACITY = 48  # neighbours kept per particle; more are counted as overflow
+FULL, FORWARD_SORTED, FORWARD_RADIUS = 0, 1, 2  # which neighbours a list holds (see HashGrid.build)
 
 
 @ti.func
@@ -122,10 +123,12 @@ def query_range(home: ivec3, q, bits: ivec3, starts: ti.template()):
 
 
 @ti.func
-def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: ti.template(),
-              sorted_xr: ti.template(), neighbours: ti.template()):
-    """Entries begin..end within reach of particle i (at `slot`): append them to i's list;
-    count those touching it. Other cells may share these buckets (cells a table width apart),
+def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, by_radius, found, touch,
+              entries: ti.template(), sorted_xr: ti.template(), neighbours: ti.template()):
+    """Entries begin..end within reach (r_i + r_j + margin + margin_radii min(r_i, r_j)) of
+    particle i (at `slot`): append them to i's list; count those touching it. by_radius:
+    forward lists owned by the smaller particle, only the larger ones (or, of equal radius,
+    those sorted after i) are kept. Other cells may share these buckets (cells a table width apart),
     but their particles are at least a table width minus two cells away (three cells or
     more, see HashGrid), beyond reach, so the distance test alone tells them apart.
     Branch-free: most candidates are out of reach and which ones is not predictable; every
@@ -135,8 +138,8 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: 
         other = sorted_xr[k]
         d2 = (xi - other.xyz).norm_sqr()
         contact = ri + other.w
-        reach = contact + margin
-        keep = (k != slot) & (d2 < reach * reach)
+        reach = contact + margin + margin_radii * ti.min(ri, other.w)
+        keep = (k != slot) & (d2 < reach * reach) & ((by_radius == 0) | (other.w > ri) | ((other.w == ri) & (k > slot)))
         neighbours[i, ti.min(found, NEIGHBOUR_CAPACITY)] = entries[k]
         found += ti.cast(keep, ti.i32)
         touch += ti.cast(keep & (d2 < contact * contact), ti.i32)
@@ -144,11 +147,13 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, found, touch, entries: 
 
 
 @ti.kernel
-def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, forward: ti.i32,
+def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, margin_radii: float,
+                forward: ti.i32,
                 # outputs
                 lists: ListArgs, touching: ARRAY, overflow: ARRAY):
-    """Each particle's neighbours within r_i + r_j + margin (forward: only those after it in
-    the sorted entries), and how many of them touch it."""
+    """Each particle's neighbours within r_i + r_j + margin + margin_radii min(r_i, r_j)
+    (forward: FORWARD_SORTED, only those after it in the sorted entries; FORWARD_RADIUS, only
+    those larger than it or, of equal radius, after it), and how many of them touch it."""
     # One particle per iteration, visited in bucket order (its own data and the cells
     # around it were just read by its bucket neighbours).
     for slot in range(grid.starts[grid.n_buckets]):
@@ -162,8 +167,9 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
             for part in range(3):
                 begin, end = row_part(home + ivec3(-1, dy, dz), part, grid.bits, grid.starts)
                 # forward lists: only the entries after this one (most rows end before it)
-                found, touch = _scan_row(ti.select(forward != 0, ti.max(begin, slot + 1), begin), end, slot, i, xi,
-                                         own.w, margin, found, touch, grid.entries, grid.sorted_xr, lists.neighbours)
+                found, touch = _scan_row(ti.select(forward == FORWARD_SORTED, ti.max(begin, slot + 1), begin), end,
+                                         slot, i, xi, own.w, margin, margin_radii, forward == FORWARD_RADIUS, found,
+                                         touch, grid.entries, grid.sorted_xr, lists.neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
@@ -243,17 +249,22 @@ class HashGrid:
         lists = [self.neighbours, self.neighbour_count, self.touching] if self.list_capacity else []
         return [self.bucket, self.rank, self.entries, self.sorted_xr, self.counts, self.starts, self.block_sums] + lists
 
-    def build(self, x, radius, flags, n: int, cell_size: float, margin: float, forward: bool = False):
+    def build(self, x, radius, flags, n: int, cell_size: float, margin: float, forward: bool = False,
+              margin_radii: float = 0.0, by_radius: bool = False):
         """Sort the first n particles (positions x, an array) into buckets and collect, for
-        each, the particles closer than r_i + r_j + margin (needs cell_size >= 2 r_max + margin),
-        and how many of them touch it (closer than r_i + r_j) in `touching`. forward: list
-        only the particles after it in the sorted entries (each pair once, in the list of the
-        one sorted first); `touching` then counts the listed ones."""
+        each, the particles closer than r_i + r_j + margin + margin_radii min(r_i, r_j) (needs
+        cell_size >= 2 r_max + margin + margin_radii r_max), and how many of them touch it
+        (closer than r_i + r_j) in `touching`. forward: each pair once, in the list of the one
+        sorted first, or with by_radius in the list of the smaller one (of equal radii, the one
+        sorted first: a large particle among many small ones then lists few, and each small one
+        lists it); `touching` then counts the listed ones."""
         self.sort(x, radius, flags, n, cell_size)
         self._ensure_lists()
         self.forward = bool(forward)
-        _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin, forward=int(forward),
-                    lists=self.lists, touching=self.touching, overflow=self.overflow)
+        mode = (FORWARD_RADIUS if by_radius else FORWARD_SORTED) if forward else FULL
+        _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin,
+                    margin_radii=margin_radii, forward=mode, lists=self.lists, touching=self.touching,
+                    overflow=self.overflow)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions

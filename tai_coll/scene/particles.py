@@ -85,6 +85,7 @@ class ParticleStore:
         self.capacity = 0
         self.max_radius = 0.0  # kept on the host: the hash grid's cell size needs it every substep
         self.min_radius = float("inf")  # (Scene's substeps="auto" needs it every frame)
+        self.mass_range = (float("inf"), 0.0)  # lightest and heaviest mass (the pair solver's shock propagation)
         self._largest = None  # a one-element work array (max_speed)
         # Kernels count events in a small i32 array; `collect_stats` drains it into Python
         # integers after every frame, so long runs of many particles cannot overflow it.
@@ -181,6 +182,8 @@ class ParticleStore:
         if n:
             self.max_radius = max(self.max_radius, float(np.max(radius)))
             self.min_radius = min(self.min_radius, float(np.min(radius)))
+            lightest, heaviest = self.mass_range
+            self.mass_range = (min(lightest, float(np.min(mass))), max(heaviest, float(np.max(mass))))
         return slice(start, start + n)
 
     def clearances_hold(self, table) -> bool:

@@ -21,7 +21,12 @@ from .motion import make_motion
 from .particles import ParticleStore
 from .stepping import DEFAULT_SUBSTEPS, DIVERGED_FACTOR, DIVERGED_SPEED, SubstepChoice
 
+# DEM pairs overlapping by more than this fraction of the smaller radius are warned about: the
+# contacts are too soft for their load (piles at sensible stiffness overlap a few per cent).
+CRUSHED_OVERLAP = 0.25
 
+
+@runtime.bound_to_runtime
 class Scene:
     """Particles, the colliders they hit, and how contacts are resolved.
 
@@ -38,6 +43,9 @@ class Scene:
         `PenaltySolver(...)` resolves them with forces instead.
     domain: optional ((x0, y0, z0), (x1, y1, z1)) box in m. A particle that leaves it is
         frozen where it left and no longer simulated (see `particle_status()`), with a warning.
+
+    After tc.init restarts Taichi, every public method raises RuntimeError
+    (runtime.bound_to_runtime): the scene's arrays died with the old runtime.
     """
 
     def __init__(self, *, gravity=(0.0, -9.81, 0.0), dt: float | None = None, substeps: int | str = DEFAULT_SUBSTEPS,
@@ -48,6 +56,9 @@ class Scene:
         self._stepping = SubstepChoice.build(dt, substeps, frame_dt, max_substeps, cfl)
         self.dt, self.substeps = self._stepping.initial
         self.solver = solver if solver is not None else ImpulseSolver()
+        if isinstance(self.solver, type):
+            raise TypeError(f"solver must be a solver instance such as tc.ImpulseSolver(); got the class "
+                            f"{self.solver.__name__} itself: pass an instance, {self.solver.__name__}(...)")
         if not isinstance(self.solver, Solver):
             raise TypeError(f"solver must be a solver such as tc.ImpulseSolver(); got {type(self.solver).__name__}")
         domain = None if domain is None else validate.box("domain", domain)
@@ -64,6 +75,7 @@ class Scene:
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
         self._warned_dropped = False  # whether full neighbour lists were warned about (once)
+        self._warned_crushed = False  # whether DEM overlap beyond CRUSHED_OVERLAP was warned about (once)
 
     # ---------------------------------------------------------------- building
     def add_collider(self, collider: Collider, *, material: Material | None = None, velocity=None,
@@ -74,7 +86,6 @@ class Scene:
         repulsion: a `tc.RepulsionField` pushing particles away before they touch (the
         penalty solver applies it). Returns the scene's entry for it (current pose,
         material, velocities)."""
-        self._check_runtime()
         if not isinstance(collider, Collider):
             raise TypeError(f"collider must be a tai_coll collider (Plane, Sphere, Box, ...); "
                             f"got {type(collider).__name__}")
@@ -92,7 +103,6 @@ class Scene:
     def add_particles(self, *, positions, velocities=None, mass=1.0, radius=0.005) -> slice:
         """Add particles. positions, velocities: (N, 3) in m and m/s (velocities default 0);
         mass (kg) and radius (m): a scalar or an (N,) array, > 0. Returns their index slice."""
-        self._check_runtime()
         x = validate.points("positions", positions)
         n = len(x)
         if velocities is None:
@@ -113,7 +123,7 @@ class Scene:
         Options (solvers.pairs.PairSettings): method ("gauss-seidel", the default, or
         "jacobi": how the passes visit the pairs), iterations (contact passes, default 1
         Gauss-Seidel, 4 Jacobi), projection_iterations (3 / 4), relaxation (1.0 / 1.5),
-        contact_margin (m; None: a quarter of the largest radius), verlet_skin (m; 0: extra
+        contact_margin (m; None: a quarter of each pair's smaller radius), verlet_skin (m; 0: extra
         reach that lets neighbour lists be kept between substeps), reorder (True: the store
         kept in the grid's cell order; public order never changes), tangential_springs (False;
         DEM pairs only: friction by a spring per contact, Cundall and Strack, so static friction
@@ -126,7 +136,6 @@ class Scene:
         point and the material's rolling_friction resists rolling (a rolling spring per
         contact with tangential_springs). Returns the scene's ParticleCollisions (settings and
         counters)."""
-        self._check_runtime()
         settings = PairSettings(material=material, **options)
         if settings.tangential_springs and self.solver.pair_model != "dem":
             raise ValueError("tangential_springs: DEM pairs only (the scene's solver must be a tc.PenaltySolver; "
@@ -134,7 +143,7 @@ class Scene:
         self._pairs = ParticleCollisions(settings)
         self._particles.wake_all()
         self._world = dataclasses.replace(self._world, pair_contacts=True)
-        self._warned_dropped = False
+        self._warned_dropped = self._warned_crushed = False
         self._solver_checked = None  # pair contacts can be the stiffest
         return self._pairs
 
@@ -146,7 +155,9 @@ class Scene:
 
     def particle_overlap(self) -> dict:
         """Overlap between touching particles now, relative to the smaller radius of each
-        pair: {"max", "mean" (over overlapping pairs), "pairs"}."""
+        pair: {"max", "mean" (over overlapping pairs), "pairs"}; all 0 without particles."""
+        if not self._particles.count:  # (no particles: no grid cell size to sort them by)
+            return {"max": 0.0, "mean": 0.0, "pairs": 0}
         pairs = self._pairs if self._pairs is not None else ParticleCollisions(PairSettings())
         return pairs.overlap(self._world)
 
@@ -159,7 +170,6 @@ class Scene:
     # ---------------------------------------------------------------- running
     def step(self, frames: int = 1) -> None:
         """Advance `frames` frames of `substeps` substeps of `dt` seconds."""
-        self._check_runtime()
         frames = validate.integer("frames", frames, low=0)
         self._check_solver()
         kinematic = self._colliders.has_kinematic
@@ -251,12 +261,31 @@ class Scene:
                     f"neighbour lists were full by t = {self.time:.6g} s: {dropped} neighbour(s) of particles with "
                     f"more than {NEIGHBOUR_CAPACITY} others within reach were left out, and contacts with them "
                     "missed (the running count: neighbour_overflow of what enable_particle_collisions returned). "
-                    "The lists reach r_i + r_j + margin * the largest radius: a smaller margin, or radii closer "
-                    "to each other, keep them short", RuntimeWarning, stacklevel=3)
+                    "The lists reach r_i + r_j + a margin (contact_margin, or a quarter of the smaller radius) "
+                    "and verlet_skin: smaller ones, or a pile less crushed, keep them short", RuntimeWarning,
+                    stacklevel=3)
+        if (self._pairs is not None and self.solver.pair_model == "dem" and not self._warned_crushed
+                and not self._pairs.placing):
+            self._check_crushed()
         if fresh["left_domain"]:
             warnings.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
                           f"frozen ({totals['left_domain']} in all); see Scene.particle_status()", RuntimeWarning,
                           stacklevel=3)
+
+    def _check_crushed(self):
+        """DEM pairs: warn once when particles overlap by more than CRUSHED_OVERLAP of the
+        smaller radius, contacts too soft for the load they carry (a spring holds a load at
+        overlap = load / k; docs/physics.md 5.4)."""
+        deepest = self._pairs.overlap(self._world)["max"]
+        if deepest > CRUSHED_OVERLAP:
+            self._warned_crushed = True
+            warnings.warn(
+                f"particles overlap by up to {100 * deepest:.0f} % of the smaller radius at t = {self.time:.6g} s: "
+                "the DEM contacts are too soft for the load they carry (a spring holds a load at overlap = load / "
+                "k; with hertz=, each contact's stiffness follows the masses of its particles, so a light particle "
+                "cannot hold up a heavy one). Give PenaltySolver(stiffness=...) in N/m for the heaviest load, with "
+                "substeps='auto', or use the impulse solver, whose shock propagation keeps piles of any mass "
+                "ratio apart", RuntimeWarning, stacklevel=4)
 
     def _check_divergence(self):
         """dt is beyond the stability limit (see _watch_stability): stop a run whose particles
@@ -376,9 +405,6 @@ class Scene:
         if x.shape != (self.num_particles, 3):
             raise ValueError(f"positions must have shape ({self.num_particles}, 3); got {x.shape}")
         self._particles.write("x", x)
-
-    def _check_runtime(self):
-        runtime.check_generation(self._runtime.generation, "this Scene")
 
     def __repr__(self):
         return (f"Scene({self.num_particles} particles, {len(self._colliders)} colliders, dt={self.dt:g}, "

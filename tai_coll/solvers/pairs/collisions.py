@@ -17,7 +17,9 @@ A substep with impulse pairs (the ImpulseSolver's, `impulse_substep`), in phases
    candidates' positions only, at most max_push_speed * dt a substep; Gauss-Seidel
    then takes a settle pass: the law (with restitution: a pair that comes into contact just
    then still bounces) on the pairs touching at the final positions, positions unchanged,
-   so no contact carries approaching velocity into the next substep;
+   so no contact carries approaching velocity into the next substep; where masses differ
+   widely, shock propagation first (shock.py): the colliders' contact passes, support
+   levels, and projection passes (and the settle pass) with each pair's lower particle fixed;
 6. colliders: the solver resolves the candidates against the colliders last, so no particle
    ends inside a collider; the result is the new state.
 The passes visit the pairs one after another over a colouring of the grid (gauss_seidel.py,
@@ -42,9 +44,9 @@ from ...neighbors.verlet import VerletLists
 from ...response.laws import WET_LAWS
 from ...types import unused
 from ..penalty import Forces, ForcesAndTorques
-from . import dem, gauss_seidel, jacobi
+from . import dem, gauss_seidel, jacobi, shock
 from .overlap import overlap
-from .placement import SHRINK, grant_allowances, shrink_allowances
+from .placement import SHRINK, cap_push_velocity, grant_allowances, shrink_allowances
 from .predict import predict_kernel
 from .sleeping import update_rest
 from .settings import PairSettings
@@ -53,6 +55,8 @@ from .springs import SpringHistory
 # Substeps (builds of the lists) between reorderings of the store by cell: particles move
 # little in a few substeps, so the order stays coherent, and the permutation's cost is spread.
 REORDER_INTERVAL = 8
+# Radius ratio (largest / smallest) beyond which each pair is listed by its smaller particle.
+BY_RADIUS_RATIO = 2.0
 
 
 class ParticleCollisions:
@@ -76,6 +80,8 @@ class ParticleCollisions:
         self._law = None  # (key, the DEM law's argument pack)
         self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
+        self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
+        self._v_pushed = None  # the velocities entering the projection passes while allowances are left
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -99,6 +105,7 @@ class ParticleCollisions:
         self.torque = None  # DEM pairs of spinning particles (see _loads)
         self._load_args = None
         self.changed = ti.ndarray(ti.i32, shape=1)
+        self.levels = self._v_pushed = None
         self._largest = ti.ndarray(float, shape=1)
         self.lists.invalidate()
 
@@ -141,6 +148,7 @@ class ParticleCollisions:
             held.append(self.lists.listed_at)
         if self.torque is not None:
             held.append(self.torque)
+        held += [a for a in (self.levels, self._v_pushed) if a is not None]
         return held
 
     # ---------------------------------------------------------------- the grid and the store's order
@@ -175,7 +183,7 @@ class ParticleCollisions:
         sleep = self._may_sleep(world)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
-        contacts = self._predict_and_list(world, dt, settings.margin_length(r_max), settings.skin_length(r_max))
+        contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max))
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
         # 3. elastic pass on v(t)
         self.v_start.copy_from(particles.v)
@@ -201,15 +209,22 @@ class ParticleCollisions:
             solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=False)
         # 5. projection passes on positions (the first also takes up to max_push_speed * dt of the
         #    overlap there was at the start of the substep, by positions only)
+        if placed:
+            if self._v_pushed is None:
+                self._v_pushed = ti.Vector.ndarray(3, float, shape=self.capacity)
+            self._v_pushed.copy_from(self.v1)
         for k in range(settings.projection_iterations):
             if not self._projection_pass(particles, dt, placed, settings.max_push_speed * dt if k == 0 else 0.0):
                 break
+        if placed:  # no more than max_push_speed from the separation of placed particles
+            cap_push_velocity(particles.args, self._v_pushed, settings.max_push_speed, self.v1)
         if settings.method == "gauss-seidel":
+            levels = self._shock(world, solver, dt, placed)
             # a last velocity pass at the final positions: without it, particles jammed deep in
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
             gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
-                                     self.changed, self.x1, self.v1, wake_speed=wake_speeds[1])
+                                     self.changed, self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels)
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
         self._latest_counts = self._counts[0]
@@ -217,6 +232,26 @@ class ParticleCollisions:
         if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
             update_rest(particles.args, self.delta, self.v_start, ti.math.vec3(*world.gravity), dt,
                         settings.sleep_time, settings.sleep_drift)
+
+    def _shock(self, world, solver, dt: float, placed: bool):
+        """Shock propagation (shock.py) where the particles' masses differ by more than
+        SHOCK_MASS_RATIO under gravity: the colliders' contact passes (so that particles pushed
+        into a floor are back on it), the support levels, and projection passes with each
+        pair's lower particle fixed. Returns the levels for the settle pass (None without)."""
+        particles = world.particles
+        lightest, heaviest = particles.mass_range
+        if heaviest <= shock.SHOCK_MASS_RATIO * lightest or not any(world.gravity):
+            return None
+        if self.levels is None:
+            self.levels = ti.ndarray(ti.i32, shape=self.capacity)
+        solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=False)
+        shock.support_levels(world, self.grid.lists, self.x1, self.levels, self.changed)
+        for _ in range(shock.SHOCK_PASSES):
+            gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, 1.0, dt, placed, 0.0,
+                                         self.changed, self.x1, self.v1, sleep=self._sleep, levels=self.levels)
+            if not self._changed():
+                break
+        return self.levels
 
     def _may_sleep(self, world) -> bool:
         """Whether particles may sleep this substep (sleeping.py): sleeping is on, and no
@@ -228,13 +263,18 @@ class ParticleCollisions:
         self._sleep = sleep
         return sleep
 
-    def _predict_and_list(self, world, dt: float, reach: float, skin: float):
-        """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + reach
-        of each other at them, kept from earlier substeps while they still hold. Returns the
-        array holding each particle's contact count at the candidates (for the first pass)."""
+    def _predict_and_list(self, world, dt: float, margin: tuple, skin: float):
+        """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + margin
+        (margin: (m, radii), settings.margin_terms) + skin of each other at them, kept from
+        earlier substeps while they still hold. Returns the array holding each particle's
+        contact count at the candidates (for the first pass)."""
         particles = world.particles
         n = particles.count
-        key = (particles.edits, n, reach, skin, particles.capacity, self.settings.method)
+        length, radii = margin
+        # lists owned by the smaller particle of each pair where radii differ widely (a large
+        # particle among small ones would otherwise list hundreds); see HashGrid.build
+        by_radius = particles.max_radius > BY_RADIUS_RATIO * particles.min_radius
+        key = (particles.edits, n, margin, skin, particles.capacity, self.settings.method)
         keep = skin > 0.0
         if keep:
             self.lists.ensure(self.capacity)
@@ -249,8 +289,9 @@ class ParticleCollisions:
         self._reorder(particles)  # (swaps the store's arrays)
         launch["particles"] = particles.args
         predict(**launch)
-        self.grid.build(self.x1, particles.radius, particles.flags, n, 2.0 * particles.max_radius + reach + skin,
-                        reach + skin, forward=self.forward_lists)
+        self.grid.build(self.x1, particles.radius, particles.flags, n,
+                        (2.0 + radii) * particles.max_radius + length + skin, length + skin,
+                        forward=self.forward_lists, margin_radii=radii, by_radius=by_radius)
         self._sorted_key = (particles.edits, n)
         if keep:
             self.lists.mark(self.x1, particles.flags, n)
@@ -317,6 +358,11 @@ class ParticleCollisions:
                                        self._largest)
             self._allowance_left = max(self._allowance_left, largest)
             particles.placed_from = None
+        return self._allowance_left > 0.0
+
+    @property
+    def placing(self) -> bool:
+        """Whether overlap particles were placed with is still being removed (allowances left)."""
         return self._allowance_left > 0.0
 
     def _relax(self, particles, dt: float):

@@ -34,6 +34,7 @@ from ... import runtime
 from ...response.laws import TINY, pair_normal, respond
 from ...types import ARRAY, GridArgs, ListArgs, ParticleArgs, ivec3, vec3
 from .placement import placed_overlap
+from .shock import fixed_shares
 from .sleeping import is_asleep, shares, wake_pair
 
 COLOURS = 8
@@ -88,10 +89,11 @@ SETTLE_TOUCH = 1e-4
 
 
 @ti.kernel
-def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit_bits: ti.template(), grid: GridArgs,
+def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(),
+          unit_bits: ti.template(), grid: GridArgs,
           lists: ListArgs, particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
-          dt: float, push_distance: float, wake_speed: float,
+          dt: float, push_distance: float, wake_speed: float, levels: ARRAY,
           # outputs
           changed: ARRAY,
           # in-out
@@ -116,6 +118,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit
         pair's change (sleeping.shares), two sleeping ones are skipped; the velocity passes
         (ELASTIC, CONTACT, SETTLE) wake a sleeping particle that a moving or just-woken one
         nears (sleeping.wake_pair; wake_speed: that pass's threshold).
+    shock: the lower of a pair's support levels (shock.py; levels) is immovable.
     Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
     Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
     CPU): the units running at once share no particle. Divisions by the pair's mass sum are
@@ -163,6 +166,8 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), unit
                             nrm, dist = pair_normal(xi, xj, i, j)
                             # i's and j's parts of the pair's change, by inverse mass
                             wi, wj = shares(mi, particles.mass[j], asleep_i != 0, asleep_j != 0)
+                            if ti.static(shock):
+                                wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
                             if ti.static(mode == PROJECTION and not placed):
                                 found = 1
                                 move = ((reach - dist) * relaxation) * nrm
@@ -230,23 +235,28 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
     law with e = 0) over the pairs of the forward lists; see _pass. particles: the store's
     pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
     wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep."""
-    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None,
+    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None, shock=False,
           unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
-          push_distance=0.0, wake_speed=wake_speed or 0.0, changed=changed, v_test=v_test, x1=x1, v1=v1)
+          push_distance=0.0, wake_speed=wake_speed or 0.0, levels=changed, changed=changed, v_test=v_test, x1=x1,
+          v1=v1)
 
 
-def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, wake_speed: float | None = None):
-    """A velocity pass at the final positions, positions unchanged; see _pass."""
-    _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, unit_bits=unit_bits(), grid=grid, lists=lists,
-          particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0, wake_speed=wake_speed or 0.0,
-          changed=changed, v_test=v1, x1=x1, v1=v1)
+def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, wake_speed: float | None = None,
+                levels=None):
+    """A velocity pass at the final positions, positions unchanged; levels: support levels
+    (shock.py) or None; see _pass."""
+    _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, shock=levels is not None, unit_bits=unit_bits(),
+          grid=grid, lists=lists, particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0,
+          wake_speed=wake_speed or 0.0, levels=changed if levels is None else levels, changed=changed, v_test=v1,
+          x1=x1, v1=v1)
 
 
 def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed: bool, push_distance: float,
-                    changed, x1, v1, sleep: bool = False):
+                    changed, x1, v1, sleep: bool = False, levels=None):
     """A projection pass over the pairs of the forward lists; placed: overlap allowances are
-    left, push_distance (m) of them may go this substep; sleep: some particles may sleep; see
-    _pass."""
-    _pass(mode=PROJECTION, placed=placed, sleep=sleep, unit_bits=unit_bits(), grid=grid, lists=lists,
-          particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0, relaxation=relaxation,
-          dt=dt, push_distance=push_distance, wake_speed=0.0, changed=changed, v_test=v1, x1=x1, v1=v1)
+    left, push_distance (m) of them may go this substep; sleep: some particles may sleep;
+    levels: support levels (shock.py) or None; see _pass."""
+    _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, unit_bits=unit_bits(), grid=grid,
+          lists=lists, particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0,
+          relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0,
+          levels=changed if levels is None else levels, changed=changed, v_test=v1, x1=x1, v1=v1)

@@ -13,12 +13,16 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
 - DEM pairs (dem.py): the spring law acts on the overlap beyond the allowances.
 Allowances shrink every substep (each particle's by SHRINK of max_push_speed * dt, a pair's by
 twice that) and end at zero, where the pairs are back on the ordinary law.
+In a crowd (particles spawned on top of each other), position pushes from many pairs at once
+move particles into third ones by more than any pair's start overlap explains, and that overlap
+would be followed by the velocity: a particle with an allowance leaves the projection passes
+no faster than max_push_speed, or than it entered them (cap_push_velocity).
 """
 
 import taichi as ti
 
 from ...neighbors.hash_grid import QUERY_RANGES, cell_of, query_range
-from ...types import ARRAY, GridArgs
+from ...types import ARRAY, GridArgs, ParticleArgs
 
 #: The share of max_push_speed * dt by which each particle's allowance shrinks a substep.
 SHRINK = 0.25
@@ -96,3 +100,19 @@ def shrink_allowances(n: int, amount: float, allowance, work) -> float:
     work.fill(0)
     _shrink_allowances(n, amount, allowance, work)
     return float(work[0])
+
+
+@ti.kernel
+def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, cap: float,
+                      # in-out
+                      v1: ARRAY):
+    """A particle with an overlap allowance leaves the projection passes no faster than `cap`
+    (m/s) or than it entered them (v_before), whichever is more: the rest of its separation
+    goes by positions only. (Capping what one substep adds would let a crowd's pushes add up
+    over the substeps.)"""
+    for i in range(particles.count):
+        if particles.allowance[i] > 0.0:
+            speed = v1[i].norm()
+            limit = ti.max(v_before[i].norm(), cap)
+            if speed > limit:
+                v1[i] = v1[i] * (limit / speed)

@@ -17,7 +17,7 @@ from .sleeping import SLEEP_DRIFT, SLEEP_TIME, WAKE_SPEED
 # relaxation). Gauss-Seidel converges in fewer passes (gauss_seidel.py; docs/design-notes.md
 # has the tuning that chose them).
 METHODS = {"gauss-seidel": (1, 3, 1.0), "jacobi": (4, 4, 1.5)}
-#: contact_margin's default, in radii of the largest particle.
+#: contact_margin's default, in radii of the smaller particle of each pair.
 MARGIN_RADII = 0.25
 TANGENTIAL_RATIO = 2.0 / 7.0  # default k_t / k_n (and D_t / D_n) of the tangential springs
 #: max_push_speed's default (m/s): a half-radius overlap of 5 mm particles goes in 5 ms.
@@ -45,7 +45,7 @@ class PairSettings:
     contact_margin: m, extra reach of the impulse passes' neighbour lists, so that contacts
         created while the passes move particles are still seen (the passes move a particle
         by at most dt times its change of velocity; a contact missed in one substep is found
-        in the next). None (default): a quarter of the largest particle radius. Larger
+        in the next). None (default): a quarter of the smaller radius of each pair. Larger
         margins cost time: every listed neighbour is evaluated in every pass. (DEM pairs need
         none: their forces are evaluated once, at the substep's start.)
     verlet_skin: m, further reach of the lists so that they can be kept from one substep to
@@ -156,6 +156,14 @@ class PairSettings:
         if self.contact_margin is not None:
             return self.contact_margin
         return (MARGIN_RADII if self.margin is None else self.margin) * largest_radius
+
+    def margin_terms(self) -> tuple:
+        """The contact margin of a pair as (m, radii): margin = m + radii * min(r_i, r_j); the
+        default, MARGIN_RADII of the smaller radius, keeps a small particle's list as short
+        beside a large one as among its likes."""
+        if self.contact_margin is not None:
+            return self.contact_margin, 0.0
+        return 0.0, MARGIN_RADII if self.margin is None else self.margin
 
     def skin_length(self, largest_radius: float) -> float:
         """The Verlet skin in m for particles whose largest radius is `largest_radius`."""

@@ -1,0 +1,115 @@
+"""Shock propagation for piles of particles of very different masses (docs/physics.md 5.3.2).
+
+Gauss-Seidel splits each pair's correction by inverse mass. Where a heavy particle rests on a
+light one that rests on a floor, the light one takes nearly all of each correction, into the
+floor; the floor pushes it back out; the heavy one moves by m_light / m_heavy of the overlap
+per pass and sinks through (a 1e3 kg particle on a 1e-6 kg one ends with their centres
+0.03 mm apart). Passes enough to converge would number in the mass ratio.
+
+Shock propagation (after Guendelman, Bridson and Fedkiw 2003) gives each particle a support
+level at the end of the substep's passes: 0 where it rests on a collider (touching one whose
+outward normal points up, against gravity), k + 1 where it rests on a particle of level k (its
+neighbour's centre lies below its own, within SUPPORT_COS of straight down), NO_SUPPORT
+otherwise. Further projection passes and the settle pass then treat the lower level of a pair
+as immovable: the upper particle takes the pair's whole correction, as it would from a floor.
+Pairs of equal level (neighbours within a layer, or particles in flight) split by inverse mass
+as before, so momentum is kept wherever no support is involved.
+
+It runs only where masses differ by more than SHOCK_MASS_RATIO (piles of one mass settle
+without it: docs/design-notes.md) and gravity is not zero (no up, no support).
+"""
+
+import taichi as ti
+
+from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, vec3
+from ..detection import collider_sdf
+
+# Particles whose masses differ by more than this ratio get shock propagation.
+SHOCK_MASS_RATIO = 10.0
+# A neighbour supports a particle when the direction from its centre to the particle's is
+# within acos(SUPPORT_COS) (about 75 degrees) of up; a collider supports one when its outward
+# normal is.
+SUPPORT_COS = 0.25
+# Contact for support: within this fraction of the radius (collider) or of r_i + r_j (pair)
+# beyond touching (the passes leave resting contacts at touching, give or take round-off).
+SUPPORT_TOUCH = 1e-2
+NO_SUPPORT = 1 << 30
+# Passes of the level propagation at most (each adds one level; a pile deeper than this many
+# particles has its upper part unsupported, which is the plain split by mass).
+MAX_LEVEL_PASSES = 64
+# Shock projection passes at most (each pair resolved with its lower particle fixed; a pass
+# that finds no overlap ends them).
+SHOCK_PASSES = 16
+
+
+@ti.kernel
+def _support_from_colliders(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), x1: ARRAY,
+                            up: vec3,
+                            # outputs
+                            levels: ARRAY):
+    """levels[i] = 0 for an active particle touching (at its candidate x1) a collider whose
+    outward normal points up, NO_SUPPORT for every other."""
+    for i in range(particles.count):
+        level = NO_SUPPORT
+        if particles.flags[i] == ACTIVE:
+            touch = particles.radius[i] * (1.0 + SUPPORT_TOUCH)
+            for ci in range(colliders.count):
+                phi, n = collider_sdf(colliders, groups, ci, x1[i], True)
+                if phi < touch and n.dot(up) > SUPPORT_COS:
+                    level = 0
+        levels[i] = level
+
+
+@ti.kernel
+def _propagate(particles: ParticleArgs, lists: ListArgs, x1: ARRAY, up: vec3,
+               # outputs
+               changed: ARRAY,
+               # in-out
+               levels: ARRAY):
+    """One pass over the pairs of the forward lists: a particle resting on a neighbour of
+    level k gets level k + 1 if that is lower than its own. changed[0]: whether any did."""
+    changed[0] = 0
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE:
+            ri = particles.radius[i]
+            for k in range(lists.neighbour_count[i]):
+                j = lists.neighbours[i, k]
+                d = x1[i] - x1[j]
+                touch = (ri + particles.radius[j]) * (1.0 + SUPPORT_TOUCH)
+                d2 = d.norm_sqr()
+                if d2 < touch * touch and d2 > 0.0:
+                    height = d.dot(up) / ti.sqrt(d2)  # cosine of the angle of j -> i from up
+                    below, above = j, i
+                    if height < 0.0:
+                        below, above = i, j
+                    level = levels[below]
+                    if ti.abs(height) > SUPPORT_COS and level < NO_SUPPORT and level + 1 < levels[above]:
+                        ti.atomic_min(levels[above], level + 1)
+                        changed[0] = 1
+
+
+@ti.func
+def fixed_shares(wi, wj, level_i, level_j):
+    """A pair's parts (wi, wj, see sleeping.shares) with the lower support level immovable:
+    the upper particle takes the whole change (none if it takes none already: asleep)."""
+    si, sj = wi, wj
+    if level_i < level_j:
+        si, sj = 0.0, ti.select(wj > 0.0, 1.0, 0.0)
+    elif level_j < level_i:
+        si, sj = ti.select(wi > 0.0, 1.0, 0.0), 0.0
+    return si, sj
+
+
+def support_levels(world, lists, x1, levels, changed) -> int:
+    """Each particle's support level at the candidates x1 (the module's notes) into levels;
+    returns the propagation passes it took."""
+    gravity = world.gravity
+    norm = sum(g * g for g in gravity) ** 0.5
+    up = vec3(*(-g / norm for g in gravity))
+    table = world.colliders
+    _support_from_colliders(world.particles.args, table.args, table.groups, x1, up, levels)
+    for passes in range(1, MAX_LEVEL_PASSES + 1):
+        _propagate(world.particles.args, lists, x1, up, changed, levels)
+        if not changed[0]:
+            return passes
+    return MAX_LEVEL_PASSES

@@ -1,0 +1,356 @@
+"""Values and calls that used to crash deep inside Taichi, or to corrupt the state silently,
+get one clear error that names the argument, before any kernel runs (issue 25).
+
+The session runs in f64 (conftest.py). The f32 range rule is checked here under
+`f32_rules`, which makes validation read an f32 runtime while Taichi keeps running in f64
+(nothing reaches a kernel), and once for real in a child process with its own f32 Taichi,
+which also restarts Taichi under a scene built before.
+"""
+
+import dataclasses
+import json
+import re
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import taichi as ti
+
+import tai_coll as tc
+from tai_coll import runtime
+from tai_coll.geometry import implicit_eval
+from test_validation import no_kernels, scene  # noqa: F401 (fixtures: kernels raise KernelRan; two particles)
+
+vec3 = ti.math.vec3
+F32_MAX = float(np.finfo(np.float32).max)
+F32_TINY = float(np.finfo(np.float32).tiny)
+
+
+@pytest.fixture
+def f32_rules(monkeypatch):
+    """Validation as under tc.init(precision="f32"), on the session's running Taichi."""
+    monkeypatch.setattr(runtime, "_info", dataclasses.replace(runtime.info(), precision="f32"))
+
+
+# ---------------------------------------------------------------------------- the float range
+
+@pytest.mark.parametrize("call, name", [
+    (lambda s: tc.Scene(gravity=(0.0, 1e39, 0.0)), "gravity"),
+    (lambda s: tc.Scene(dt=1e-50), "dt"),
+    (lambda s: tc.Scene(dt=1e39), "dt"),
+    (lambda s: setattr(s, "gravity", (0.0, -1e39, 0.0)), "gravity"),
+    (lambda s: s.add_particles(positions=[[0.0, 1e39, 0.0]]), "positions"),
+    (lambda s: s.add_particles(positions=[[0.0, 0.0, 0.0], [-1e39, 0.0, 0.0]]), "positions"),
+    (lambda s: s.add_particles(positions=np.zeros((1, 3)), velocities=[[0.0, 0.0, 1e39]]), "velocities"),
+    (lambda s: s.add_particles(positions=np.zeros((1, 3)), mass=1e-50), "mass"),
+    (lambda s: s.add_particles(positions=np.zeros((1, 3)), mass=1e39), "mass"),
+    (lambda s: s.add_particles(positions=np.zeros((2, 3)), radius=[0.01, 1e-45]), "radius"),
+    (lambda s: s.add_particles(positions=np.zeros((1, 3)), radius=1e-50), "radius"),
+    (lambda s: s.set_positions([[0.0, 0.0, 0.0], [0.0, 1e39, 0.0]]), "positions"),
+    (lambda s: s.set_velocities([[0.0, 0.0, 0.0], [0.0, -1e39, 0.0]]), "velocities"),
+    (lambda s: s.set_angular_velocities([[0.0, 0.0, 0.0], [1e39, 0.0, 0.0]]), "angular_velocities"),
+    (lambda s: s.add_collider(tc.Plane(), velocity=(1e39, 0.0, 0.0)), "velocity"),
+    (lambda s: tc.Plane(point=(0.0, 1e39, 0.0)), "point"),
+    (lambda s: tc.Sphere(center=(1e39, 0.0, 0.0)), "center"),
+    (lambda s: tc.Sphere(radius=1e-50), "radius"),
+    (lambda s: tc.Box(half_extents=(1e39, 1.0, 1.0)), "half_extents"),
+    (lambda s: tc.Capsule(half_height=1e-40), "half_height"),
+    (lambda s: tc.Material(friction=1e39), "friction"),
+    (lambda s: tc.Material(wet_friction=1e-50), "wet_friction"),
+    (lambda s: tc.Material(restitution=1e-45), "restitution"),
+    (lambda s: tc.Sphere().signed_distance([[0.0, 1e39, 0.0]]), "points"),
+    (lambda s: tc.Implicit(lambda p: 1e39 * np.linalg.norm(p, axis=1), bounds=((-1, -1, -1), (1, 1, 1)),
+                           resolution=8), "function values"),
+])
+def test_values_f32_cannot_hold_are_refused_naming_the_argument(scene, call, name, f32_rules, no_kernels):
+    before = scene.positions(), scene.velocities()
+    with pytest.raises(ValueError, match=rf"^{name}.* must be within the range f32 holds"):
+        call(scene)
+    assert scene.num_particles == 2
+    np.testing.assert_array_equal(scene.positions(), before[0])
+    np.testing.assert_array_equal(scene.velocities(), before[1])
+    np.testing.assert_array_equal(scene.gravity, [0.0, -9.81, 0.0])
+
+
+def test_the_range_message_states_the_range_and_what_would_be_stored(scene, f32_rules, no_kernels):
+    with pytest.raises(ValueError, match=r"mass must be within the range f32 holds \(0, or magnitudes 1\.175e-38 to "
+                                         r"3\.403e\+38\); got 1e-50 \(index 0\), which would be stored as 0"):
+        scene.add_particles(positions=np.zeros((1, 3)), mass=1e-50)
+    with pytest.raises(ValueError, match=r"positions .*\(magnitudes up to 3\.403e\+38\); got 1e\+39 \(row 1\), "
+                                         r"which would be stored as inf; tc.init\(precision='f64'\) holds more"):
+        scene.add_particles(positions=[[0.0, 0.0, 0.0], [0.0, 1e39, 0.0]])
+
+
+def test_values_f32_holds_are_kept(scene, f32_rules):
+    """The neighbours that are fine: the extremes f32 holds, zeros, and coordinates below its
+    smallest normal number (stored as 0, an error below what f32 resolves; velocities that
+    decay frame after frame must not start failing when written back)."""
+    sl = scene.add_particles(positions=[[0.0, 1e38, -1e38], [0.0, 1e-40, 0.0]], velocities=[[0.0, 0.0, 0.0]] * 2,
+                             mass=[F32_TINY, 1e38], radius=[1e-37, 0.01])
+    assert (sl.start, sl.stop) == (2, 4)
+    scene.set_velocities(np.full((4, 3), 1e-42))
+    scene.gravity = (0.0, -1e-40, 0.0)
+    tc.Scene(dt=F32_TINY)
+    tc.Sphere(radius=3e38)
+    tc.Material(friction=0.0, wet_friction=1e-30)
+
+
+def test_f64_holds_what_f32_cannot_and_refuses_its_own_extremes(scene):
+    scene.add_particles(positions=[[0.0, 1e39, 0.0]], mass=1e-50, radius=1e-50)
+    assert scene.num_particles == 3 and scene.masses()[2] == 1e-50
+    tc.Sphere(radius=1e39)
+    # below f64's smallest normal number: the range rule, or "> 0" where the CPU already
+    # reads such a number as 0 (Taichi sets the flush-to-zero modes in this process)
+    with pytest.raises(ValueError, match=r"^radius must be (within the range f64 holds|> 0)"):
+        tc.Sphere(radius=1e-310)
+    with pytest.raises(ValueError, match=r"^mass must be (within the range f64 holds|> 0)"):
+        scene.add_particles(positions=np.zeros((1, 3)), mass=1e-320)
+
+
+def test_before_init_values_are_held_to_f32_the_default(monkeypatch, no_kernels):
+    """Before tc.init the rule reads f32, the precision first use starts, and starts nothing."""
+    monkeypatch.setattr(runtime, "_info", None)
+    with pytest.raises(ValueError, match="^radius must be within the range f32 holds"):
+        tc.Sphere(radius=1e-50)
+    assert runtime.info() is None
+
+
+# ---------------------------------------------------------------------------- non-real numbers
+
+@pytest.mark.parametrize("call, error, name", [
+    (lambda s: s.add_particles(positions=np.array([[1 + 1j, 0.0, 0.0]])), TypeError, "positions"),
+    (lambda s: s.add_particles(positions=[[0.0, 0.0, 0.0]], velocities=[[0.0, 2j, 0.0]]), TypeError, "velocities"),
+    (lambda s: s.add_particles(positions=[[0.0, 0.0, 0.0]], mass=1 + 0j), TypeError, "mass"),
+    (lambda s: s.add_particles(positions=[[0.0, 0.0, 0.0]], radius=np.array([0.01 + 0j])), TypeError, "radius"),
+    (lambda s: s.add_particles(positions=[[True, False, True]]), TypeError, "positions"),
+    (lambda s: s.add_particles(positions=[["0", "1", "2"]]), TypeError, "positions"),
+    (lambda s: s.add_particles(positions=[[0, 10**400, 0]]), ValueError, "positions"),
+    (lambda s: s.set_positions(np.zeros((2, 3), dtype=complex)), TypeError, "positions"),
+    (lambda s: s.set_velocities(np.zeros((2, 3), dtype=np.complex64)), TypeError, "velocities"),
+    (lambda s: tc.Scene(gravity=(0.0, -9.81 + 1j, 0.0)), TypeError, "gravity"),
+    (lambda s: tc.Scene(dt=10**400), ValueError, "dt"),
+    (lambda s: tc.Sphere(center=np.array([0, 0, 1j])), TypeError, "center"),
+    (lambda s: tc.Box(rotation=np.eye(3, dtype=complex)), TypeError, "rotation"),
+    (lambda s: tc.Sphere().signed_distance(np.zeros((2, 3), dtype=complex)), TypeError, "points"),
+])
+def test_complex_and_other_non_real_input_is_refused_not_cast(scene, call, error, name, no_kernels):
+    with pytest.raises(error, match=f"^{name}"):
+        call(scene)
+    assert scene.num_particles == 2
+
+
+# ---------------------------------------------------------------------------- tc.init
+
+def test_the_limits_of_init_are_taichis(no_kernels):
+    """threads and seed at their limits pass the checks; one past them does not, and the
+    runtime is left as it was (tests/test_validation.py has the rest)."""
+    runtime._check_init_args("cpu", "f64", runtime.MAX_THREADS, runtime.MAX_SEED)
+    before = runtime.info()
+    with pytest.raises(ValueError, match=r"seed must be an integer from 0 to 2147483647"):
+        tc.init(arch="cpu", precision="f64", threads=2, seed=runtime.MAX_SEED + 1)
+    assert runtime.info() is before
+
+
+# ---------------------------------------------------------------------------- a scene of an old runtime
+
+SCENE_CALLS = {
+    "add_collider": lambda s: s.add_collider(tc.Plane()),
+    "add_particles": lambda s: s.add_particles(positions=[[0.0, 0.0, 0.0]]),
+    "enable_particle_collisions": lambda s: s.enable_particle_collisions(),
+    "particle_overlap": lambda s: s.particle_overlap(),
+    "state_nbytes": lambda s: s.state_nbytes(),
+    "step": lambda s: s.step(),
+    "positions": lambda s: s.positions(),
+    "velocities": lambda s: s.velocities(),
+    "angular_velocities": lambda s: s.angular_velocities(),
+    "masses": lambda s: s.masses(),
+    "radii": lambda s: s.radii(),
+    "particle_status": lambda s: s.particle_status(),
+    "sleeping": lambda s: s.sleeping(),
+    "status": lambda s: s.status(),
+    "stats": lambda s: s.stats(),
+    "set_positions": lambda s: s.set_positions(np.zeros((2, 3))),
+    "set_velocities": lambda s: s.set_velocities(np.zeros((2, 3))),
+    "set_angular_velocities": lambda s: s.set_angular_velocities(np.zeros((2, 3))),
+    "gravity =": lambda s: setattr(s, "gravity", (0.0, 0.0, 0.0)),
+}
+
+
+def test_every_public_scene_method_is_guarded():
+    """The table above covers the whole public surface, each method wrapped by the one guard."""
+    methods = {name for name, member in vars(tc.Scene).items()
+               if not name.startswith("_") and callable(member)}
+    assert methods == {name for name in SCENE_CALLS if not name.endswith("=")}
+    for name in methods:
+        assert getattr(tc.Scene, name).__wrapped__, name
+    assert tc.Scene.gravity.fset.__wrapped__
+
+
+@pytest.mark.parametrize("name", list(SCENE_CALLS))
+def test_a_scene_of_an_old_runtime_refuses_every_public_call(scene, name, no_kernels):
+    # what tc.init with other arguments leaves behind: a scene of an earlier generation
+    scene._runtime = dataclasses.replace(scene._runtime, generation=scene._runtime.generation - 1)
+    with pytest.raises(RuntimeError, match="this Scene was built before tai_coll.init.. restarted Taichi"):
+        SCENE_CALLS[name](scene)
+    # its host-side attributes still read, so it prints
+    assert scene.num_particles == 2 and scene.time == 0.0 and "2 particles" in repr(scene)
+
+
+RESTART = textwrap.dedent("""
+    import json
+    import numpy as np
+    import tai_coll as tc
+
+    tc.init(arch="cpu", threads=1)   # f32
+    out = {}
+    def attempt(key, call):
+        try:
+            call()
+            out[key] = "ok"
+        except Exception as error:
+            out[key] = f"{type(error).__name__}: {error}"
+
+    scene = tc.Scene(dt=1e-3, substeps=2)
+    scene.add_particles(positions=[[0.0, 1.0, 0.0]], radius=0.01)
+    attempt("gravity", lambda: tc.Scene(gravity=(0.0, 1e39, 0.0)))
+    attempt("mass", lambda: scene.add_particles(positions=[[0.0, 0.0, 0.0]], mass=1e-50))
+    attempt("velocities", lambda: scene.set_velocities([[0.0, 1e39, 0.0]]))
+    attempt("seed", lambda: tc.init(arch="cpu", threads=1, seed=2**64))
+    attempt("step after a refused init", lambda: scene.step())
+    out["masses"] = scene.masses().tolist()
+    tc.init(arch="cpu", threads=1, seed=2**31 - 1)   # a restart, at the largest seed
+    for name in ("positions", "particle_status", "particle_overlap", "step"):
+        attempt(name, getattr(scene, name))
+    attempt("set_positions", lambda: scene.set_positions([[0.0, 2.0, 0.0]]))
+    fresh = tc.Scene()
+    fresh.add_particles(positions=[[0.0, 1.0, 0.0]])
+    fresh.step()
+    out["fresh"] = fresh.positions().tolist()
+    print(json.dumps(out))
+""")
+
+
+@pytest.mark.slow  # a child process with its own Taichi
+def test_f32_range_and_a_restart_in_a_real_f32_runtime():
+    done = subprocess.run([sys.executable, "-c", RESTART], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert out["gravity"].startswith("ValueError: gravity must be within the range f32 holds")
+    assert out["mass"].startswith("ValueError: mass must be within the range f32 holds")
+    assert out["velocities"].startswith("ValueError: velocities must be within the range f32 holds")
+    assert out["seed"].startswith("ValueError: seed must be an integer from 0 to")
+    assert out["step after a refused init"] == "ok"  # the refused init left the runtime running
+    assert out["masses"] == [1.0]
+    for name in ("positions", "particle_status", "particle_overlap", "step", "set_positions"):
+        assert out[name].startswith("RuntimeError: this Scene was built before tai_coll.init() restarted"), name
+    assert out["fresh"][0][1] < 1.0
+
+
+# ---------------------------------------------------------------------------- Scene odds and ends
+
+@pytest.mark.parametrize("solver", [tc.ImpulseSolver, tc.PenaltySolver])
+def test_a_solver_class_is_refused_asking_for_an_instance(solver, no_kernels):
+    with pytest.raises(TypeError, match=rf"^solver must be a solver instance.*pass an instance, {solver.__name__}\("):
+        tc.Scene(solver=solver)
+
+
+def test_particle_overlap_of_an_empty_scene_is_zero(no_kernels):
+    empty = {"max": 0.0, "mean": 0.0, "pairs": 0}
+    assert tc.Scene().particle_overlap() == empty
+    with_pairs = tc.Scene()
+    with_pairs.enable_particle_collisions()
+    assert with_pairs.particle_overlap() == empty
+
+
+# ---------------------------------------------------------------------------- tc.Implicit
+
+@ti.func
+def pointing(p: vec3):
+    return p * 2.0
+
+
+@ti.func
+def two_values(p: vec3):
+    return p.x, p.y
+
+
+@ti.func
+def no_value(p: vec3):
+    q = p  # noqa: F841 (returns nothing)
+
+
+@ti.func
+def misspelt(p: vec3):
+    return p.norm() - radius_of_the_ball  # noqa: F821 (the typo under test)
+
+
+@ti.func
+def ball(p: vec3):
+    return p.norm() - 1.0
+
+
+@ti.func
+def scalar_gradient(p: vec3):
+    return p.norm()
+
+
+@pytest.mark.parametrize("function, gradient, match", [
+    (pointing, None, "^function pointing must return one float.*it returns vec3"),
+    (two_values, None, "^function two_values must return one float.*it returns a tuple of 2 values"),
+    (no_value, None, "^function no_value must return one float.*it returns nothing"),
+    (misspelt, None, "(?s)^function misspelt must be a Taichi function .*radius_of_the_ball"),
+    (ball, scalar_gradient, "^gradient scalar_gradient must return a vec3.*it returns float"),
+])
+def test_a_taichi_function_of_the_wrong_kind_is_refused_at_construction(function, gradient, match):
+    registered = len(implicit_eval._REGISTERED)
+    with pytest.raises(TypeError, match=match):
+        tc.Implicit(function, gradient=gradient)
+    assert len(implicit_eval._REGISTERED) == registered  # took no collider kind
+
+
+@pytest.mark.parametrize("options, name", [
+    (dict(resolution=100000), "resolution"),
+    (dict(resolution=257), "resolution"),
+    (dict(voxel_size=1e-30), "voxel_size"),  # would wrap around an integer count
+    (dict(voxel_size=2.0 / 300), "voxel_size"),
+])
+def test_an_implicit_grid_is_capped_as_meshsdf_is(options, name, no_kernels):
+    from tai_coll.geometry import grid_sdf, mesh_sdf
+
+    assert mesh_sdf.MAX_NODES is grid_sdf.MAX_NODES == 256 ** 3
+    calls = []
+
+    def sphere(points):
+        calls.append(len(points))
+        return np.linalg.norm(points, axis=1) - 0.5
+
+    with pytest.raises(ValueError, match=rf"^{name}: the grid would have .* more than 16,777,216"):
+        tc.Implicit(sphere, bounds=((-1, -1, -1), (1, 1, 1)), **options)
+    assert calls == []  # refused before sampling
+    assert tc.Implicit(sphere, bounds=((-1, -1, -1), (1, 1, 1)), resolution=16).values.shape == (16,) * 3
+
+
+# ---------------------------------------------------------------------------- mesh files
+
+MESH_LOADERS = {"MeshSDF": tc.MeshSDF, "TriangleMesh": tc.TriangleMesh, "bake_mesh": tc.bake_mesh}
+
+
+@pytest.mark.parametrize("load", list(MESH_LOADERS))
+def test_a_file_trimesh_cannot_parse_names_the_argument_and_the_file(load, tmp_path, no_kernels):
+    noise = tmp_path / "noise.stl"
+    noise.write_bytes(np.random.default_rng(0).integers(0, 256, 2000, dtype=np.uint8).tobytes())
+    text = tmp_path / "text.obj"
+    text.write_text("this is not a mesh\n")
+    unknown = tmp_path / "mesh.unknown"
+    unknown.write_text("1 2 3\n")
+    for path in (noise, unknown):
+        with pytest.raises(ValueError, match=f"^mesh: could not read a mesh from {re.escape(repr(str(path)))}"):
+            MESH_LOADERS[load](path)
+    with pytest.raises(ValueError, match=f"^mesh: the mesh read from {re.escape(repr(str(text)))} is empty"):
+        MESH_LOADERS[load](text)
+    with pytest.raises(FileNotFoundError, match="mesh file not found"):
+        MESH_LOADERS[load](tmp_path / "missing.stl")
+    with pytest.raises(ValueError, match=f"^mesh: {re.escape(repr(str(tmp_path)))} is not a file"):
+        MESH_LOADERS[load](tmp_path)

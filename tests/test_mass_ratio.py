@@ -1,0 +1,137 @@
+"""Particles of very different masses and sizes (docs/physics.md 5.3.2): a heavy particle on a
+light one on a floor keeps them apart by the sum of their radii (shock propagation), a large heavy
+ball lands on a bed of small particles without swallowing them, momentum is kept where no
+support is involved, DEM contacts too soft for their load are warned about, and particles
+spawned on top of each other leave no faster than the push speed."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import tai_coll as tc
+from tai_coll.neighbors import HashGrid
+from tai_coll.solvers.pairs.settings import MAX_PUSH_SPEED
+from conftest import on_device
+
+
+def _stack(masses, radius=0.01, method="gauss-seidel"):
+    scene = tc.Scene(dt=1 / 600, substeps=10)
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.0, friction=0.5))
+    heights = radius + 2 * radius * np.arange(len(masses))
+    scene.add_particles(positions=np.c_[np.zeros(len(masses)), heights, np.zeros(len(masses))], radius=radius,
+                        mass=np.asarray(masses, dtype=float))
+    scene.enable_particle_collisions(method=method, material=tc.Material(restitution=0.0, friction=0.5))
+    return scene
+
+
+@pytest.mark.parametrize("masses", [(1e-6, 1e3), (1e-3, 1e-3, 1e3), (1e-6, 1.0, 1e3), (1.0, 1e-6, 1e-3)])
+def test_a_heavy_particle_rests_on_light_ones_apart_by_the_sum_of_radii(masses):
+    scene = _stack(masses)
+    scene.step(60)  # 1 s
+    y = scene.positions()[:, 1]
+    gaps = np.diff(y)
+    assert np.all(np.abs(gaps - 0.02) <= 0.05 * 0.02), gaps
+    assert y[0] == pytest.approx(0.01, rel=0.05)  # the bottom one is on the floor, not in it
+    assert np.all(np.isfinite(scene.velocities())) and np.abs(scene.velocities()).max() < 1e-3
+
+
+def test_equal_masses_need_no_shock_propagation():
+    # (the stack of one mass is held as before: support from the floor climbs within a pass)
+    scene = _stack((1.0, 1.0, 1.0))
+    scene.step(60)
+    assert np.diff(scene.positions()[:, 1]) == pytest.approx(0.02, rel=0.05)
+    assert scene.particle_collisions.levels is None  # never allocated: not needed
+
+
+def test_momentum_is_kept_between_heavy_and_light_particles_in_flight():
+    # no support (no collider): the shock pass leaves pairs to the split by inverse mass
+    scene = tc.Scene(dt=1 / 600, substeps=10)
+    masses = np.array([1e3, 1e-3])
+    scene.add_particles(positions=[[0.0, 1.0, 0.0], [0.05, 1.0, 0.0]], velocities=[[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]],
+                        radius=0.01, mass=masses)
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.5, friction=0.0))
+    scene.step(6)  # they meet within 25 ms
+    v = scene.velocities()
+    momentum = (masses[:, None] * v).sum(0)
+    expected = (masses[:, None] * np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])).sum(0) \
+        + masses.sum() * np.asarray(scene.gravity) * scene.time
+    assert momentum == pytest.approx(expected, rel=1e-5, abs=1e-6)
+    assert v[1, 0] > v[0, 0]  # the light one bounced off the heavy one
+
+
+def test_a_heavy_ball_lands_on_a_bed_of_small_particles_without_swallowing_them():
+    r, big = 0.005, 0.05
+    scene = tc.Scene(dt=1 / 1200, substeps=10)
+    material = tc.Material(restitution=0.1, friction=0.5)
+    scene.add_collider(tc.Plane(), material=material)
+    half = 0.08
+    for axis in (0, 2):
+        for side in (-1, 1):
+            point, normal = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+            point[axis], normal[axis] = side * half, -side
+            scene.add_collider(tc.Plane(point=tuple(point), normal=tuple(normal)), material=material)
+    grid = np.arange(-half + 1.1 * r, half - 1.1 * r, 2.2 * r)
+    gx, gy, gz = np.meshgrid(grid, 1.1 * r + 2.2 * r * np.arange(2), grid, indexing="ij")
+    bed = np.c_[gx.ravel(), gy.ravel(), gz.ravel()]
+    scene.add_particles(positions=bed, radius=r, mass=2500 * 4 / 3 * np.pi * r ** 3)
+    scene.add_particles(positions=[[0.0, 0.15, 0.0]], radius=big, mass=100.0)  # mass ratio 7.6e4, radius 10
+    pairs = scene.enable_particle_collisions(material=material)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no neighbour-list overflow
+        scene.step(40)
+    x = scene.positions()
+    gap = np.linalg.norm(x[:-1] - x[-1], axis=1) - (big + r)
+    assert gap.min() > -0.05 * r  # no small particle inside the ball
+    assert x[-1, 1] > big + 2 * r  # it rests on the bed, not on the floor
+    assert pairs.neighbour_overflow == 0
+
+
+@pytest.mark.parametrize("margin_radii", [0.0, 0.25])
+def test_lists_of_a_large_particle_among_small_ones_hold_each_pair_once(margin_radii):
+    # by_radius: each pair in the list of its smaller particle, so the large one's hundreds of
+    # neighbours do not overflow its list; reach r_i + r_j + margin_radii * min(r_i, r_j)
+    rng = np.random.default_rng(3)
+    r, big = 0.005, 0.1
+    small = rng.uniform(-0.13, 0.13, (4000, 3))
+    x = np.r_[small[np.linalg.norm(small, axis=1) > big], [[0.0, 0.0, 0.0]]]
+    radius = np.r_[np.full(len(x) - 1, r), [big]]
+    n = len(x)
+    grid = HashGrid()
+    grid.build(on_device(x), on_device(radius), on_device(np.zeros(n, int)), n, (2 + margin_radii) * big, 0.0,
+               forward=True, margin_radii=margin_radii, by_radius=True)
+    d = np.linalg.norm(x[:, None] - x[None], axis=2)
+    reach = radius[:, None] + radius[None] + margin_radii * np.minimum(radius[:, None], radius[None])
+    lists = grid.neighbour_lists(n)
+    for i in range(n):
+        assert np.array_equal(lists[i], np.flatnonzero((d[i] < reach[i]) & (np.arange(n) != i))), i
+    counts = grid.neighbour_count.to_numpy()[:n]
+    assert counts[-1] == 0 and len(lists[-1]) > 100  # the large one lists none, and is in 100+ lists
+    assert counts.sum() == sum(len(row) for row in lists) // 2
+    assert grid.dropped() == 0
+
+
+def test_dem_contacts_too_soft_for_their_load_are_warned_about():
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=200), dt=5e-5, substeps=100)
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.0))
+    scene.add_particles(positions=[[0, 0.01, 0], [0, 0.03, 0]], radius=0.01, mass=np.array([1e-6, 1e3]))
+    scene.enable_particle_collisions()
+    with pytest.warns(RuntimeWarning, match="too soft for the load"):
+        scene.step(20)
+
+
+@pytest.mark.parametrize("count", [40, pytest.param(1000, marks=pytest.mark.slow)])
+def test_coincident_particles_leave_no_faster_than_the_push_speed(count):
+    scene = tc.Scene(gravity=(0, 0, 0))
+    scene.add_particles(positions=np.zeros((count, 3)), radius=0.005)
+    scene.enable_particle_collisions()
+    fastest = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (1,000 in one place overflow the neighbour lists, and say so)
+        for _ in range(30):
+            scene.step()
+            fastest = max(fastest, float(np.linalg.norm(scene.velocities(), axis=1).max()))
+    limit = MAX_PUSH_SPEED * 1.001 if count <= 48 else 1.0
+    assert fastest <= limit
+    if count <= 48:
+        assert scene.particle_overlap()["max"] < 0.01
