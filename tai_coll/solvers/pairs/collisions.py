@@ -358,7 +358,7 @@ class ParticleCollisions:
                                        self._largest)
             self._allowance_left = max(self._allowance_left, largest)
             particles.placed_from = None
-        return self._allowance_left > 0.0
+        return self.placing
 
     @property
     def placing(self) -> bool:
@@ -454,6 +454,11 @@ class ParticleCollisions:
         {"max": ..., "mean": ... over overlapping pairs, "pairs": count}."""
         particles = world.particles
         self._sort(particles, particles.x, 2.0 * particles.max_radius)
-        self.lists.invalidate()  # the sort replaced the buckets the lists (and their colouring) came from
+        if self.grid.forward:
+            # the sort replaced the buckets that forward lists (Gauss-Seidel's) are coloured by;
+            # full lists (Jacobi's, DEM's) hold store indices only and stay valid, so measuring
+            # (the scene's check of DEM overlap, every frame) neither costs a rebuild nor
+            # changes the run
+            self.lists.invalidate()
         self._ensure(particles.capacity)
         return overlap(self.grid, particles.flags, particles.count, self.delta)

@@ -152,10 +152,9 @@ class PairSettings:
             put(old, validate.real(old, value, low=0.0))
 
     def margin_length(self, largest_radius: float) -> float:
-        """The contact margin in m for particles whose largest radius is `largest_radius`."""
-        if self.contact_margin is not None:
-            return self.contact_margin
-        return (MARGIN_RADII if self.margin is None else self.margin) * largest_radius
+        """The largest contact margin in m, that of a pair of particles of `largest_radius`."""
+        length, radii = self.margin_terms()
+        return length + radii * largest_radius
 
     def margin_terms(self) -> tuple:
         """The contact margin of a pair as (m, radii): margin = m + radii * min(r_i, r_j); the
