@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import functools
 import numbers
-import warnings
 
 import numpy as np
 
-from . import runtime
+from . import notices, runtime
 
 
 def storage_precision() -> str:
@@ -198,8 +197,8 @@ def renamed_arguments(**renames):
                 if old in kwargs:
                     if new in kwargs:
                         raise TypeError(f"give {new}= only ({old}= is its old name)")
-                    warnings.warn(f"{function.__qualname__.split('.')[0]}: {old}= is now called {new}=; the old "
-                                  "name will be removed in tai_coll 0.3", DeprecationWarning, stacklevel=2)
+                    notices.warn(f"{function.__qualname__.split('.')[0]}: {old}= is now called {new}=; the old "
+                                  "name will be removed in tai_coll 0.3", DeprecationWarning)
                     kwargs[new] = kwargs.pop(old)
             return function(*args, **kwargs)
 

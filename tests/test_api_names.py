@@ -53,8 +53,9 @@ def test_particle_status_and_stats_are_two_different_things():
     assert list(scene.particle_status()) == ["active"] * 5
     assert set(scene.stats()) == {"failsafe", "repulsion", "non_finite", "left_domain", "substeps", "dt",
                                   "substep_limit"}
-    with pytest.warns(DeprecationWarning, match="particle_status"):
+    with pytest.warns(DeprecationWarning, match="particle_status") as caught:
         assert np.array_equal(scene.status(), scene.particle_status())
+    assert [w.filename for w in caught] == [__file__]  # the caller's line, through the runtime guard
 
 
 @pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])

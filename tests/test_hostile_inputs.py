@@ -63,6 +63,9 @@ def f32_rules(monkeypatch):
     (lambda s: tc.Sphere().signed_distance([[0.0, 1e39, 0.0]]), "points"),
     (lambda s: tc.Implicit(lambda p: 1e39 * np.linalg.norm(p, axis=1), bounds=((-1, -1, -1), (1, 1, 1)),
                            resolution=8), "function values"),
+    (lambda s: tc.HeightField(heights=[[0.0, 0.0], [0.0, 1e39]], cell_size=0.1), "heights"),
+    (lambda s: tc.TriangleMesh(mesh=([[0.0, 0.0, 0.0], [1e39, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0, 1, 2]])),
+     "mesh vertices"),
 ])
 def test_values_f32_cannot_hold_are_refused_naming_the_argument(scene, call, name, f32_rules, no_kernels):
     before = scene.positions(), scene.velocities()

@@ -10,9 +10,11 @@ per pass. It follows tai_coll/solvers/impulse.py and detection.py rule for rule:
    x1 = x + dt v1 + min(push_fraction depth, max_push_speed dt) n, collider after collider;
 3. elastic passes (`elastic_iterations`, default 1): detect with v(t); the law with the
    collider's restitution on v(t), its change added to the candidate (x1 += dt dv);
-4. contact passes (up to `max_iterations`): detect with v_avg = (x1 - x)/dt; the law with
-   e = 0 on v_avg, x1 = x + dt v_new; a particle still in contact after the cap gets the
-   failsafe (v1 = 0, x1 = x, the colliders being still).
+4. contact passes (up to `max_iterations`): detect with the candidate velocity v1; the law
+   with e = 0 on v1; the particle follows its path to the contact (fraction t of the
+   substep) and the new velocity after it, x1 = x + t (x1 - x) + (1 - t) dt v_new; a particle
+   still in contact after the cap gets the failsafe (v1 = 0, x1 = x, the colliders being
+   still).
 
 Detection (detection.py `detect`, first contact along the segment), collider after collider
 in table order: a collider is a candidate when x1 interferes (phi(x1) < r) deeper than x
@@ -188,13 +190,8 @@ class StaticCollider:
         return phi, self._world(n)
 
     def carried(self, X):
-        """detection.py `carried` at elapsed = 0 for a still collider: c + R (R^T (x - c)),
-        x itself up to round-off (kept, since the crossing starts from it)."""
-        P = X - self.center
-        if not self.identity:
-            P = self.R @ (self.Rt @ P)
-        P += self.center
-        return P
+        """detection.py `carried` at elapsed = 0 for a still collider: x itself (no transform)."""
+        return X
 
     # -- trajectory crossing (crossing.py), world segments X0 -> X1 of spheres of radius r
     def crossing(self, X0, X1, r):
@@ -544,7 +541,7 @@ class NumpyImpulseReference:
         S = None
         v_start = v0
         for _ in range(self.elastic_iterations):
-            found, normal = self._detect(*view(S), v_start)
+            found, normal, _, _ = self._detect(*view(S), v_start)
             hit = np.flatnonzero(found >= 0)
             if hit.size == 0:
                 break
@@ -557,10 +554,10 @@ class NumpyImpulseReference:
             S, v_start = C, v_new
             refresh(S)
 
-        # contact passes: e = 0 on the average velocity, x1 = x + dt v_new; then the failsafe
+        # contact passes: e = 0 on v1, on to the contact and the new velocity after it; then the failsafe
         S = None
         for contact_pass in range(self.max_iterations + 1):
-            found, normal = self._detect(*view(S), None)
+            found, normal, when, at = self._detect(*view(S), v1 if S is None else v1[:, S])
             hit = np.flatnonzero(found >= 0)
             if hit.size == 0:
                 break
@@ -574,12 +571,10 @@ class NumpyImpulseReference:
                 self.stats["failsafe"] += int(C.size)
                 self.last_failsafe = C
                 break
-            v_avg = (x1[:, C] - x0[:, C]) / dt
-            v_new = self._law(v_avg, normal[:, hit], found[hit], elastic=False)
+            v_new = self._law(v1[:, C], normal[:, hit], found[hit], elastic=False)
             v1[:, C] = v_new
-            x_new = dt * v_new
-            x_new += x0[:, C]
-            x1[:, C] = x_new
+            # along the path up to the contact (fraction `when`), the new velocity after it
+            x1[:, C] = at[:, hit] + (1.0 - when[hit]) * (dt * v_new)
             S = C
             refresh(S)
 
@@ -625,6 +620,8 @@ class NumpyImpulseReference:
         k = x0.shape[1]
         found = np.full(k, -1, np.int8)
         normal = np.empty((3, k), self.dtype)
+        when = np.zeros(k, self.dtype)
+        at = np.empty((3, k), self.dtype)
         best_t = None   # (k,), 2 until a contact is taken
         best_gap = None  # (k,), 0 until a contact is taken
 
@@ -674,7 +671,9 @@ class NumpyImpulseReference:
             best_gap[j] = g1[sel]
             found[j] = c
             normal[:, j] = n[:, sel]
-        return found, normal
+            when[j] = t[sel]
+            at[:, j] = x0[:, j] + t[sel] * (x1[:, j] - x0[:, j])
+        return found, normal, when, at
 
     def _law(self, v, n, which, *, elastic):
         """The collision routine with the material of collider `which` (per particle);

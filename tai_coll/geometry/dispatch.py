@@ -23,7 +23,7 @@ mat3 = ti.math.mat3
 
 
 @ti.func
-def local_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, p: vec3, params: vec4):
+def local_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, p: vec3, params: vec4, reach=1e30):
     """phi and the outward normal at local point p; `params` packs (radius | half extents,
     half height). Kinds backed by arrays (grids, triangles) read their block of `g` at ci;
     analytic kinds ignore both."""
@@ -42,13 +42,13 @@ def local_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, p: vec3
             phi, n = analytic.capsule_sdf(p, params[0], params[1])
     if ti.static(groups & kinds.GROUP_TRIANGLES):
         if kind == kinds.TRIANGLE_MESH:
-            phi, n = mesh_sdf(g, ci, p)
+            phi, n = mesh_sdf(g, ci, p, reach)
     if ti.static(groups & kinds.GROUP_HEIGHT):
         if kind == kinds.HEIGHT_FIELD:
-            phi, n = field_sdf(g, ci, p)
+            phi, n = field_sdf(g, ci, p, reach)
     if ti.static(groups & kinds.GROUP_GRID):
         if kind == kinds.SDF_GRID:
-            phi, n = grid_sdf(g, ci, p)
+            phi, n = grid_sdf(g, ci, p, reach)
     if ti.static(groups & kinds.GROUP_IMPLICIT):
         phi, n = implicit_sdf(g, groups, ci, kind, params, p)  # dispatches over the scene's implicit kinds
     return phi, n
@@ -56,7 +56,7 @@ def local_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, p: vec3
 
 @ti.func
 def world_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
-              x: vec3):
+              x: vec3, reach=1e30):
     """phi and the world-space normal at world point x for a collider posed at (center, R).
 
     Planes and spheres, the most common colliders, skip the two frame rotations: the plane's
@@ -70,7 +70,7 @@ def world_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params:
     elif kind == kinds.SPHERE:
         phi, n = analytic.sphere_sdf(x - center, params[0])
     else:
-        phi, n_local = local_sdf(g, groups, ci, kind, rotation.transpose() @ (x - center), params)
+        phi, n_local = local_sdf(g, groups, ci, kind, rotation.transpose() @ (x - center), params, reach)
         n = rotation @ n_local
     return phi, n
 

@@ -7,9 +7,11 @@ import os
 
 import numpy as np
 
-from .. import validate
+from .. import runtime, validate
 from . import kinds
 from .colliders import Collider
+from .terrain import BLOCK
+from .triangles import EMPTY, box_tree
 
 
 def _read_netpbm(path: str) -> np.ndarray:
@@ -72,6 +74,7 @@ class HeightField(Collider):
             raise ValueError(f"heights must be a 2-D array of at least 2 x 2 vertices; got shape {h.shape}")
         if not np.all(np.isfinite(h)):
             raise ValueError("heights must be finite")
+        validate.representable("heights", h, underflow=False)
         if np.ndim(cell_size) == 0:
             dx = dz = validate.real("cell_size", cell_size, low=0.0, low_open=True)
         else:
@@ -93,6 +96,7 @@ class HeightField(Collider):
         sx1 = (h[1:, 1:] - h[:-1, 1:]) / dx      # h11 - h01: its x slope
         self.max_slope = float(max(np.max(np.hypot(sx0, sz0)), np.max(np.hypot(sx1, sz1))))
         super().__init__(center=origin + half, rotation=np.eye(3), params=(), bound=self.UNBOUNDED)
+        self._packed = {}  # shape_data per float dtype
 
     @classmethod
     def from_image(cls, path, *, cell_size, height_scale: float = 1.0, origin=(0.0, 0.0, 0.0)) -> "HeightField":
@@ -140,11 +144,42 @@ class HeightField(Collider):
         return hit, t, n
 
     def shape_data(self):
-        nx, nz = self.heights.shape
-        ishape = np.array([0, 0, nx, nz, 0, 0, 0, 0], dtype=np.int32)
-        fshape = np.array([*self._local_origin, *self.cell_size, 1.0 / np.sqrt(1.0 + self.max_slope ** 2),
-                           float(self.heights.max()), 0.0])
-        return ishape, fshape, self.heights.ravel(), np.zeros(0, dtype=np.int32)
+        dtype = np.dtype(runtime.float_dtype())
+        if dtype not in self._packed:
+            nx, nz = self.heights.shape
+            order, leaves, boxes, blocks_z = self._block_tree(dtype)
+            ishape = np.array([0, 0, nx, nz, blocks_z, leaves, 0, 0], dtype=np.int32)
+            fshape = np.array([*self._local_origin, *self.cell_size, 1.0 / np.sqrt(1.0 + self.max_slope ** 2),
+                               float(self.heights.max()), 0.0])
+            self._packed[dtype] = (ishape, fshape, np.concatenate([self.heights.ravel(), boxes.ravel()]), order)
+        return self._packed[dtype]
+
+    def _block_tree(self, dtype):
+        """The box tree of the exact distance (terrain.py): blocks of BLOCK x BLOCK cells over
+        the cells i = -1 ... nx - 1, j = -1 ... nz - 1 (the footprint and the ring beyond it),
+        each boxed by its footprint (unbounded on a side the ring continues) and the range of
+        its corner heights. Returns (order, leaves, boxes, blocks along z)."""
+        h = self.heights
+        nx, nz = h.shape
+        dx, dz = self.cell_size
+        bx, bz = -(-(nx + 1) // BLOCK), -(-(nz + 1) // BLOCK)
+        # Corner heights of every cell i = -1 ... bx BLOCK - 2 (indices clamped, as in the kernels).
+        vi = np.clip(np.arange(-1, bx * BLOCK), 0, nx - 1)
+        vj = np.clip(np.arange(-1, bz * BLOCK), 0, nz - 1)
+        v = h[np.ix_(vi, vj)]
+        corners = np.stack([v[:-1, :-1], v[1:, :-1], v[:-1, 1:], v[1:, 1:]])
+        low = corners.min(axis=0).reshape(bx, BLOCK, bz, BLOCK).min(axis=(1, 3)).ravel()
+        high = corners.max(axis=0).reshape(bx, BLOCK, bz, BLOCK).max(axis=(1, 3)).ravel()
+        bi, bj = np.divmod(np.arange(bx * bz), bz)
+        x0, z0 = (BLOCK * bi - 1) * dx, (BLOCK * bj - 1) * dz
+        x1, z1 = x0 + BLOCK * dx, z0 + BLOCK * dz
+        x0 = np.where(bi == 0, -EMPTY, x0)
+        z0 = np.where(bj == 0, -EMPTY, z0)
+        x1 = np.where(BLOCK * bi + BLOCK - 2 >= nx - 1, EMPTY, x1)
+        z1 = np.where(BLOCK * bj + BLOCK - 2 >= nz - 1, EMPTY, z1)
+        order, leaves, boxes = box_tree(np.column_stack([x0, low, z0]), np.column_stack([x1, high, z1]),
+                                        np.column_stack([bi, np.zeros_like(bi), bj]), 1, dtype)
+        return order, leaves, boxes, bz
 
     def _describe(self):
         return f"{self.heights.shape[0]} x {self.heights.shape[1]} heights, cell_size={self.cell_size}, " \

@@ -1,15 +1,19 @@
 """Device side of exact triangle meshes (the TriangleMesh collider, triangle_mesh.py): the
-uniform grid of cells its triangles are binned into, and the queries through it.
+uniform grid of cells its triangles are binned into, the box tree over them, and the
+queries through both.
 
 docs/physics.md 1, triangle mesh row, exact path. The triangles are binned into a uniform
 grid of cubic cells (each triangle in every cell its bounding box overlaps), built in Taichi
-by a counting sort (`bin_triangles`, with the steps of tai_coll/sorting.py). Queries, in the
-mesh's local frame:
+by a counting sort (`bin_triangles`, with the steps of tai_coll/sorting.py), and put under
+a box tree (triangles.triangle_tree). Queries, in the mesh's local frame:
 
-- distance: the exact distance to the nearest triangle, searched over growing blocks of
-  cells around the point until no cell left out can hold a nearer one (`_nearest`; at
-  most MAX_SHELLS cells away: past that, a lower bound on the distance, which keeps the
-  solver's clearance skipping safe);
+- distance: the exact distance to the nearest triangle within the caller's `reach` (a
+  particle's radius; INFINITY: at any range, a point far off the mesh, a large particle
+  over small cells), the triangles of the point's cell first, then branch and bound down
+  the box tree (`_nearest`, triangles.tree_nearest): its cost grows with the depth of the
+  tree and the triangles near the point, not with the distance in cells. Past the reach,
+  a lower bound no less than it (the least gap of the boxes the search skipped); inside a
+  closed mesh, exact at every depth;
 - sign: closed meshes (every edge shared by exactly two triangles) are signed by the
   parity of a watertight ray cast along x, toward the grid's nearer end, through the
   cells of its row (triangles.ray_x_crossing); open meshes (and shells, thickness > 0)
@@ -24,23 +28,23 @@ mesh's local frame:
 
 Shape data (types.ShapeArgs): ishape = (float offset, int offset, triangles,
 cells x, cells y, cells z, closed, vertices); fshape = (grid origin xyz, cell size,
-half thickness); float block = local vertex coordinates, then a bounding sphere per
-triangle (center, radius: the queries skip the triangles it rules out); int block =
-triangle vertex indices, then per-cell start offsets (cells + 1), then the cells' triangle
-ids.
+half thickness, leaves of the box tree); float block = local vertex coordinates, then a
+bounding sphere per triangle (center, radius: the queries skip the triangles it rules
+out), then the box tree's boxes (triangles.box_tree); int block = triangle vertex indices,
+then per-cell start offsets (cells + 1), then the cells' triangle ids, then the triangles
+in the tree's leaf order.
 """
 
 import numpy as np
 import taichi as ti
 
 from .. import runtime, sorting
-from .triangles import MISS, closest_on_triangle, ray_x_crossing, swept_sphere_triangle
+from .triangles import MISS, TREE_LEAF, nearer_triangle, ray_x_crossing, swept_sphere_triangle, tree_nearest
 
 vec3 = ti.math.vec3
 ivec3 = ti.math.ivec3
 
 INFINITY = 1e30
-MAX_SHELLS = 8           # the nearest-triangle search looks at most this many cells away
 CELL_BOUND = 1 << 20     # cell coordinates are clamped in floating point before rounding
 
 
@@ -90,6 +94,18 @@ def _grid(g: ti.template(), ci):
 
 
 @ti.func
+def _tree(g: ti.template(), ci):
+    """(offset of the box tree's boxes in the float pool, its leaves, offset of its
+    triangle order in the int pool)."""
+    triangles = g.ishape[ci][2]
+    dims = ivec3(g.ishape[ci][3], g.ishape[ci][4], g.ishape[ci][5])
+    cells = dims.x * dims.y * dims.z
+    starts = g.ishape[ci][1] + 3 * triangles
+    boxes = g.ishape[ci][0] + 3 * g.ishape[ci][7] + 4 * triangles
+    return boxes, ti.cast(g.fshape[ci][5], ti.i32), starts + cells + 1 + g.ipool[starts + cells]
+
+
+@ti.func
 def _cell_span(g: ti.template(), starts, dims, cell: ivec3):
     """Where cell's triangle ids lie in the int pool: [first, last)."""
     index = (cell.x * dims.y + cell.y) * dims.z + cell.z
@@ -122,65 +138,58 @@ def _uncyclic(v, m):
 # ---------------------------------------------------------------------------- queries
 
 @ti.func
-def _cells_around(q: vec3, reach, h, dims: ivec3, home: ivec3):
-    """The block of cells overlapping the cube q +- reach, within MAX_SHELLS of home and
-    the grid: (lowest, highest) cell (empty when lowest > highest on some axis)."""
-    lo = ivec3(raw_cell(q.x - reach, h), raw_cell(q.y - reach, h), raw_cell(q.z - reach, h))
-    hi = ivec3(raw_cell(q.x + reach, h), raw_cell(q.y + reach, h), raw_cell(q.z + reach, h))
-    return ti.max(lo, home - MAX_SHELLS, 0), ti.min(hi, home + MAX_SHELLS, dims - 1)
+def _home(g: ti.template(), ci, p: vec3):
+    """(the cell holding p, clamped to the grid; the distance from p to the cells of the
+    grid outside it, INFINITY if there are none)."""
+    origin, h, dims, _ = _grid(g, ci)
+    q = p - origin
+    home = ivec3(cell_coordinate(q.x, h, dims.x), cell_coordinate(q.y, h, dims.y), cell_coordinate(q.z, h, dims.z))
+    others = INFINITY
+    for a in ti.static(range(3)):
+        if home[a] > 0:
+            others = ti.min(others, ti.max(q[a] - home[a] * h, 0.0))
+        if home[a] < dims[a] - 1:
+            others = ti.min(others, ti.max((home[a] + 1) * h - q[a], 0.0))
+    return home, others
 
 
 @ti.func
-def _nearest(g: ti.template(), ci, p: vec3):
-    """(distance, closest surface point found): exact when the search completes, else a
-    lower bound on the distance.
+def _leaf_nearest(g: ti.template(), ci, leaf, p: vec3, best, point: vec3):
+    """The nearest of the triangles in one leaf of the box tree, or for leaf -1 in the
+    cell holding p (_home), if nearer than `best`; and a lower bound on their distance."""
+    first = 0
+    last = 0
+    ids = 0  # triangle ids at ipool[ids + first ... ids + last - 1]
+    if leaf < 0:
+        _, _, dims, starts = _grid(g, ci)
+        home, _ = _home(g, ci, p)
+        first, last = _cell_span(g, starts, dims, home)
+    else:
+        _, _, ids = _tree(g, ci)
+        ids += leaf * TREE_LEAF
+        last = ti.min(TREE_LEAF, g.ishape[ci][2] - leaf * TREE_LEAF)
+    vertices = g.ishape[ci][0]
+    spheres = vertices + 3 * g.ishape[ci][7]
+    low = INFINITY
+    for k in range(first, last):
+        best, point, bound = nearer_triangle(g, vertices, g.ishape[ci][1], spheres, g.ipool[ids + k], p, best, point)
+        low = ti.min(low, bound)
+    return best, point, low
 
-    Rounds over growing blocks of cells around p, each visiting the cells the earlier ones
-    left out: first the cells within the distance to the grid (the cell of p when inside),
-    then, once a triangle is found at distance d, the cells overlapping the cube p +- d,
-    which hold every nearer triangle; while none is found the block grows by a cell. The
-    search is certain once the distance found is within the distance from p to the cells
-    not visited; blocks stop growing MAX_SHELLS cells from p's cell."""
-    origin, h, dims, starts = _grid(g, ci)
-    q = p - origin
-    home = ivec3(cell_coordinate(q.x, h, dims.x), cell_coordinate(q.y, h, dims.y), cell_coordinate(q.z, h, dims.z))
-    outside = ti.max(-q, q - dims * h, 0.0)
-    reach = outside.norm()  # distance to the grid's box
-    best = INFINITY
-    best_point = p
-    bound = 0.0
-    done_lo = ivec3(0, 0, 0)
-    done_hi = ivec3(-1, -1, -1)
-    for _ in range(MAX_SHELLS + 2):
-        lo, hi = _cells_around(q, reach, h, dims, home)
-        for i in range(lo.x, hi.x + 1):
-            for j in range(lo.y, hi.y + 1):
-                for k in range(lo.z, hi.z + 1):
-                    cell = ivec3(i, j, k)
-                    if not (all(cell >= done_lo) and all(cell <= done_hi)):
-                        first, last = _cell_span(g, starts, dims, cell)
-                        for s in range(first, last):
-                            tri = g.ipool[s]
-                            center, radius = _bounding_sphere(g, ci, tri)
-                            if (p - center).norm() - radius < best:
-                                a, b, c = _triangle(g, ci, tri)
-                                point = closest_on_triangle(p, a, b, c)
-                                dist = (p - point).norm()
-                                if dist < best:
-                                    best, best_point = dist, point
-        grew = any(lo < done_lo) or any(hi > done_hi)
-        done_lo, done_hi = lo, hi
-        # The cells not visited lie beyond the faces of the block that have cells behind them.
-        bound = INFINITY
-        for a in ti.static(range(3)):
-            if lo[a] > 0:
-                bound = ti.min(bound, ti.max(q[a] - lo[a] * h, 0.0))
-            if hi[a] < dims[a] - 1:
-                bound = ti.min(bound, ti.max((hi[a] + 1) * h - q[a], 0.0))
-        if best <= bound or not grew:
-            break
-        reach = best if best < INFINITY else reach + h
-    return ti.min(best, bound), best_point
+
+@ti.func
+def _nearest(g: ti.template(), ci, p: vec3, reach):
+    """(distance, closest surface point, found): the nearest triangle to p within `reach`
+    (INFINITY: at any range). The triangles of p's cell come first; the box tree
+    (triangles.tree_nearest) settles what they leave open. Without a triangle within
+    reach, (a lower bound on the distance, no less than reach; p; False)."""
+    boxes, leaves, _ = _tree(g, ci)
+    _, others = _home(g, ci, p)
+    dist, point, floor = tree_nearest(g, ci, boxes, leaves, p, reach, p, _leaf_nearest, True, others)
+    found = dist < reach
+    if not found:
+        dist = floor
+    return dist, point, found
 
 
 @ti.func
@@ -214,15 +223,23 @@ def _inside_by_parity(g: ti.template(), ci, p: vec3) -> bool:
 
 
 @ti.func
-def mesh_sdf(g: ti.template(), ci, p: vec3):
+def mesh_sdf(g: ti.template(), ci, p: vec3, reach=INFINITY):
     """(phi, outward normal) at local point p: the distance to the surface, negative inside
-    a closed mesh, minus half the thickness."""
-    dist, point = _nearest(g, ci, p)
+    a closed mesh, minus half the thickness. Exact where |phi| < reach (the caller's
+    radius, say); farther out, phi is a lower bound no less than reach, and n points away
+    from the mesh's centre. Inside a closed mesh, exact at every depth (the repulsion of a
+    particle found deep inside needs its way out)."""
+    inside = False
+    if g.ishape[ci][6] != 0:  # closed
+        inside = _inside_by_parity(g, ci, p)
+    dist, point, found = _nearest(g, ci, p, INFINITY if inside else reach + g.fshape[ci][4])
     n = vec3(0.0, 1.0, 0.0)
     w = p - point
+    if not found:
+        w = p  # the local frame's origin is the centre of the mesh's bounds
     if w.norm() > 1e-12 * (1.0 + p.norm()):
         n = w.normalized()
-    if g.ishape[ci][6] != 0 and _inside_by_parity(g, ci, p):
+    if inside:
         dist, n = -dist, -n
     return dist - g.fshape[ci][4], n
 

@@ -9,12 +9,11 @@ move and turn the grid rigidly about `center`.
 """
 
 import os
-import warnings
 
 import numpy as np
 
-from .. import runtime, validate
-from . import bake, kinds
+from .. import notices, runtime, validate
+from . import bake, grid_sdf, kinds
 from . import cache as sdf_cache
 from .colliders import Collider
 from .grid_sdf import MAX_NODES
@@ -163,8 +162,7 @@ class MeshSDF(Collider):
                 try:
                     sdf_cache.store(key, values=values, sign_method=np.str_(method))
                 except OSError as error:
-                    warnings.warn(f"could not write the SDF cache in {sdf_cache.cache_dir()}: {error}", RuntimeWarning,
-                                  stacklevel=2)
+                    notices.warn(f"could not write the SDF cache in {sdf_cache.cache_dir()}: {error}", RuntimeWarning)
                     self.cache_path = None
         self.values = np.asarray(values, dtype=np.float64).reshape(tuple(dims))
         self.origin = origin
@@ -199,11 +197,16 @@ class MeshSDF(Collider):
     def shape_data(self):
         ishape = np.zeros(8, dtype=np.int32)
         ishape[2:5] = self.values.shape
+        ishape[5] = grid_sdf.FACE_FLOORS
         fshape = np.zeros(8)
         fshape[0:3] = self.origin
         fshape[3] = self.voxel_size
         fshape[4] = 0.5 * self.thickness
-        return ishape, fshape, self.values.ravel(), np.zeros(0, dtype=np.int32)
+        # The least value on each face of the box (x low, x high, y low, ...): outside the
+        # box the kernels search a face's nodes only where they could give a nearer point.
+        v = self.values
+        floors = [face.min() for face in (v[0], v[-1], v[:, 0], v[:, -1], v[:, :, 0], v[:, :, -1])]
+        return ishape, fshape, np.concatenate([v.ravel(), floors]), np.zeros(0, dtype=np.int32)
 
     def _describe(self):
         return (f"{self.num_faces} faces, grid {list(self.values.shape)} at {self.voxel_size:.4g} m, "

@@ -8,29 +8,38 @@ heights (vertex indices are clamped), so, like a plane, it has no edge to fall o
 bounding sphere.
 
 - inside: below the plane of the triangle under the point (the seed's vertical test);
-- distance: exact, to the triangles of the cells within the vertical distance |dv| of the
-  point (the closest surface point lies no farther than the one straight above or below).
-  The search covers at most (2 WINDOW + 1)^2 cells; past that (a point far above a fine
-  field) phi is a lower bound: max(|dv| / sqrt(1 + G^2), the nearest found within the
-  window or beyond its edge), G the steepest slope of the field, so the solver's clearance
-  stays safe. The normal is the direction from the closest point (the triangle's normal
-  over a face, as in the seed; blended across edges);
+- distance: exact within the caller's `reach` (INFINITY: at any range). The closest
+  surface point lies no farther than the one straight above or below (|dv|), so only
+  cells within min(|dv|, reach) need searching: the cells within WINDOW of the point's
+  first; when that reaches past them (a point high over fine cells, a large particle
+  beside a steep step), a box tree over blocks of BLOCK x BLOCK cells
+  (triangles.tree_nearest) finishes the search from the best found. The ring of cells
+  just beyond the footprint stands for the flat continuation on its side (their triangles
+  are moved along the border under the point), so the tree covers the unbounded terrain.
+  Nothing within reach: phi is a lower bound no less than reach, the larger of the
+  tree's and |dv| / sqrt(1 + G^2), G the steepest slope of the field. The normal is the
+  direction from the closest point (the triangle's normal over a face, as in the seed;
+  blended across edges);
 - crossing: the particle's swept sphere against the triangles of the cells the segment's
   2-D shadow passes, widened by the radius (2-D line drawing by columns along the major
   horizontal axis, in the direction of motion), each an exact swept-sphere test.
 
-Shape data: ishape = (float offset, int offset, vertices along x, vertices along z);
-fshape = (local origin xyz, dx, dz, 1 / sqrt(1 + G^2), highest local y); float block =
-heights, row-major (i, j).
+Shape data: ishape = (float offset, int offset, vertices along x, vertices along z, blocks
+along z, leaves of the box tree); fshape = (local origin xyz, dx, dz, 1 / sqrt(1 + G^2),
+highest local y); float block = heights, row-major (i, j), then the box tree's boxes; int
+block = the blocks in the tree's leaf order, block (bi, bj) as bi * (blocks along z) + bj,
+holding the cells i = BLOCK bi - 1 ... BLOCK bi + BLOCK - 2 (j likewise; cell -1 is the
+ring).
 """
 
 import taichi as ti
 
-from .triangles import MISS, closest_on_triangle, swept_sphere_triangle
+from .triangles import MISS, closest_on_triangle, swept_sphere_triangle, tree_nearest
 
 vec3 = ti.math.vec3
 
-WINDOW = 2               # cells searched on each side of the point for the exact distance
+WINDOW = 2               # cells searched on each side of the point before the box tree
+BLOCK = 4                # cells along each side of a leaf of the box tree
 CELL_BOUND = 1 << 20     # cell coordinates are clamped in floating point before rounding
 INFINITY = 1e30
 
@@ -72,6 +81,71 @@ def _vertical(g: ti.template(), ci, q: vec3):
 
 
 @ti.func
+def _cell_nearest(g: ti.template(), ci, i, j, q: vec3, best, nearest: vec3):
+    """The nearer of (best, nearest) and the closest point of cell (i, j)'s triangles to q;
+    and a lower bound on the cell's distance. A cell of the ring just beyond the footprint
+    (i = -1 or nx - 1, j likewise) is flat across the border, so its piece is moved along
+    the border to lie under q: it then stands for the whole continuation of the terrain on
+    that side (docs/physics.md 1.2)."""
+    nx = g.ishape[ci][2]
+    nz = g.ishape[ci][3]
+    dx = g.fshape[ci][3]
+    dz = g.fshape[ci][4]
+    shift = vec3(0.0, 0.0, 0.0)
+    if i == -1:
+        shift.x = ti.min(q.x + 0.5 * dx, 0.0)
+    elif i == nx - 1:
+        shift.x = ti.max(q.x - 0.5 * dx - (nx - 1) * dx, 0.0)
+    if j == -1:
+        shift.z = ti.min(q.z + 0.5 * dz, 0.0)
+    elif j == nz - 1:
+        shift.z = ti.max(q.z - 0.5 * dz - (nz - 1) * dz, 0.0)
+    c00 = _corner(g, ci, i, j) + shift
+    c10 = _corner(g, ci, i + 1, j) + shift
+    c01 = _corner(g, ci, i, j + 1) + shift
+    c11 = _corner(g, ci, i + 1, j + 1) + shift
+    # The cell's box (footprint x height range): skip the cell unless it could be nearer.
+    low = vec3(ti.max(c00.x - q.x, q.x - c11.x, 0.0),
+               ti.max(ti.min(c00.y, c10.y, c01.y, c11.y) - q.y, q.y - ti.max(c00.y, c10.y, c01.y, c11.y), 0.0),
+               ti.max(c00.z - q.z, q.z - c11.z, 0.0)).norm()
+    if low < best:
+        low = INFINITY
+        for upper in range(2):  # triangle 0 is (00, 10, 11), triangle 1 is (00, 01, 11)
+            point = closest_on_triangle(q, c00, c01 if upper == 1 else c10, c11)
+            dist = (q - point).norm()
+            low = ti.min(low, dist)
+            if dist < best:
+                best, nearest = dist, point
+    return best, nearest, low
+
+
+@ti.func
+def _block_nearest(g: ti.template(), ci, leaf, q: vec3, best, nearest: vec3):
+    """_cell_nearest over the cells of the box tree's leaf `leaf` (one block), or for leaf
+    -1 over the window of cells around q (_around): (best, nearest, lower bound on the
+    cells' distance)."""
+    nx = g.ishape[ci][2]
+    nz = g.ishape[ci][3]
+    i0 = 0
+    j0 = 0
+    i_count = 0
+    j_count = 0
+    if leaf < 0:
+        i0, i_count, j0, j_count, _ = _around(g, ci, q, best)
+    else:
+        block = g.ipool[g.ishape[ci][1] + leaf]
+        i0 = BLOCK * (block // g.ishape[ci][4]) - 1
+        j0 = BLOCK * (block % g.ishape[ci][4]) - 1
+        i_count = ti.min(BLOCK, nx - i0)
+        j_count = ti.min(BLOCK, nz - j0)
+    low = INFINITY
+    for cell in range(i_count * j_count):
+        best, nearest, bound = _cell_nearest(g, ci, i0 + cell // j_count, j0 + cell % j_count, q, best, nearest)
+        low = ti.min(low, bound)
+    return best, nearest, low
+
+
+@ti.func
 def _window(x, reach, centre, h):
     """Cells [lo, hi] along one axis (spacing h) within `reach` of coordinate x, cut to WINDOW
     cells either side of x's cell `centre`; with the distance from x to the cells cut away
@@ -89,41 +163,31 @@ def _window(x, reach, centre, h):
 
 
 @ti.func
-def field_sdf(g: ti.template(), ci, p: vec3):
-    """(phi, outward normal) at local point p."""
+def _around(g: ti.template(), ci, q: vec3, reach):
+    """The window of cells within `reach` of q horizontally, at most WINDOW cells from q's:
+    (first i, count, first j, count, horizontal distance from q to the cells left out)."""
     dx = g.fshape[ci][3]
     dz = g.fshape[ci][4]
+    i_lo, i_hi, beyond_x = _window(q.x, reach, _cell(q.x, dx), dx)
+    j_lo, j_hi, beyond_z = _window(q.z, reach, _cell(q.z, dz), dz)
+    return i_lo, i_hi - i_lo + 1, j_lo, j_hi - j_lo + 1, ti.min(beyond_x, beyond_z)
+
+
+@ti.func
+def field_sdf(g: ti.template(), ci, p: vec3, reach=INFINITY):
+    """(phi, outward normal) at local point p; exact where |phi| < reach (the caller's
+    radius, say), a lower bound no less than reach farther out."""
     q = p - vec3(g.fshape[ci][0], g.fshape[ci][1], g.fshape[ci][2])
-    i = _cell(q.x, dx)
-    j = _cell(q.z, dz)
     dv, up = _vertical(g, ci, q)
-    reach = ti.abs(dv)
-    # Exact distance over the cells within |dv| horizontally, at most WINDOW cells away.
-    i_lo, i_hi, beyond_x = _window(q.x, reach, i, dx)
-    j_lo, j_hi, beyond_z = _window(q.z, reach, j, dz)
-    beyond = ti.min(beyond_x, beyond_z)  # horizontal distance to the cells left out of the window
-    # The point straight above or below is on the terrain: start from it, and skip the
-    # cells whose box (footprint x height range) lies no nearer.
-    best = reach
-    nearest = vec3(q.x, q.y - dv, q.z)
-    for cell in range((i_hi - i_lo + 1) * (j_hi - j_lo + 1)):
-        ic = i_lo + cell // (j_hi - j_lo + 1)
-        jc = j_lo + cell % (j_hi - j_lo + 1)
-        y00 = _corner(g, ci, ic, jc).y
-        y11 = _corner(g, ci, ic + 1, jc + 1).y
-        y10 = _corner(g, ci, ic + 1, jc).y
-        y01 = _corner(g, ci, ic, jc + 1).y
-        gap = vec3(ti.max(ic * dx - q.x, q.x - (ic + 1) * dx, 0.0),
-                   ti.max(ti.min(y00, y11, y10, y01) - q.y, q.y - ti.max(y00, y11, y10, y01), 0.0),
-                   ti.max(jc * dz - q.z, q.z - (jc + 1) * dz, 0.0))
-        if gap.norm() < best:
-            for upper in range(2):
-                ta, tb, tc = _cell_triangle(g, ci, ic, jc, upper)
-                point = closest_on_triangle(q, ta, tb, tc)
-                dist = (q - point).norm()
-                if dist < best:
-                    best, nearest = dist, point
-    dist = ti.max(reach * g.fshape[ci][5], ti.min(best, beyond))
+    # The point straight above or below is on the terrain: start from it, search the
+    # window of cells within |dv| (or reach), and the box tree when that reaches past it.
+    start = ti.min(ti.abs(dv), reach)
+    _, _, _, _, beyond = _around(g, ci, q, start)
+    base = g.ishape[ci][0] + g.ishape[ci][2] * g.ishape[ci][3]
+    dist, nearest, floor = tree_nearest(g, ci, base, g.ishape[ci][5], q, start, vec3(q.x, q.y - dv, q.z),
+                                        _block_nearest, True, beyond)
+    if dist >= reach:  # nothing within reach: the bounds the search and the slopes give
+        dist = ti.max(floor, ti.abs(dv) * g.fshape[ci][5])
     side = 1.0 if dv >= 0.0 else -1.0
     n = up
     w = q - nearest

@@ -12,6 +12,7 @@ from . import kinds
 from .colliders import Collider
 from .mesh_grid import bin_triangles
 from .mesh_sdf import load_mesh
+from .triangles import triangle_tree
 
 MAX_CELLS_PER_AXIS = 128
 MAX_CELLS = 1 << 21
@@ -39,6 +40,7 @@ def _load(mesh):
         raise ValueError(f"mesh vertices must have shape (N, 3) with N >= 3; got {vertices.shape}")
     if not np.all(np.isfinite(vertices)):
         raise ValueError("mesh vertices must be finite")
+    validate.representable("mesh vertices", vertices, underflow=False)
     if faces_arr.ndim != 2 or faces_arr.shape[1] != 3 or len(faces_arr) == 0:
         raise ValueError(f"mesh faces must have shape (M, 3) with M >= 1; got {faces_arr.shape}")
     if not np.issubdtype(faces_arr.dtype, np.integer):
@@ -121,15 +123,12 @@ class TriangleMesh(Collider):
             origin = self.grid_origin.astype(dtype)
             h = dtype.type(self.cell_size)
             starts, ids = bin_triangles(verts, tris, origin, float(h), self.grid_dims)
-            corners = self.vertices[self.faces]
-            centers = corners.mean(axis=1)
-            radii = np.linalg.norm(corners - centers[:, None], axis=2).max(axis=1)
-            # Rounded up, so that the sphere holds its triangle in the kernels' precision too.
-            spheres = np.column_stack([centers, radii * (1 + 1e-5) + 1e-7 * (1 + np.abs(centers).max(axis=1))])
+            spheres, order, leaves, boxes = triangle_tree(verts, tris, dtype)
             ishape = np.array([0, 0, len(tris), *self.grid_dims, int(self.closed), len(verts)], dtype=np.int32)
-            fshape = np.array([*origin, h, self.thickness / 2, 0.0, 0.0, 0.0], dtype=dtype)
-            self._packed[dtype] = (ishape, fshape, np.concatenate([verts.ravel(), spheres.astype(dtype).ravel()]),
-                                   np.concatenate([tris.ravel(), starts, ids]))
+            fshape = np.array([*origin, h, self.thickness / 2, leaves, 0.0, 0.0], dtype=dtype)
+            self._packed[dtype] = (ishape, fshape,
+                                   np.concatenate([verts.ravel(), spheres.ravel(), boxes.ravel()]),
+                                   np.concatenate([tris.ravel(), starts, ids, order]))
         return self._packed[dtype]
 
     def crossing(self, starts, ends, radius: float = 0.0):

@@ -19,8 +19,22 @@ in one frame:
   under swapping an edge's ends, and ties broken by simulation of simplicity (q moved by
   (eps, eps^2) in (y, z)). A ray through a shared edge or vertex therefore counts exactly
   once over a closed mesh: the parity of the count tells inside from outside.
+
+And the box tree that keeps nearest-point searches exact at any range, for a particle of
+any radius (docs/physics.md 1.2), where cells alone would stop short (a point many cells
+from the surface); triangle meshes and height fields use it.
+
+- `box_tree` (host, numpy): a complete binary tree of bounding boxes over items
+  (triangles, blocks of terrain cells), `per_leaf` to a leaf, each node split at the
+  median of the items' centres along the axis where they spread most; `triangle_tree`
+  builds it over a mesh's triangles, with a bounding sphere per triangle;
+- `tree_nearest`: branch and bound down that tree, nearer child first, skipping every box
+  no nearer than the best distance found so far. The tree is complete, so the walk needs
+  no stack: the node's heap index and one bit per level (which child came first) say
+  where to go next. `nearer_triangle` is the test of one triangle in a leaf.
 """
 
+import numpy as np
 import taichi as ti
 
 vec3 = ti.math.vec3
@@ -247,3 +261,170 @@ def ray_x_crossing(q: vec3, a: vec3, b: vec3, c: vec3):
     if total != 0.0:
         x = weighted / total
     return positive == 3 or negative == 3, x
+
+
+# ---------------------------------------------------------------------------- box tree
+
+EMPTY = 1e30  # the box of a padding leaf runs from +EMPTY to -EMPTY: no search reaches it
+INFINITY = 3e30  # farther than any box
+TREE_LEAF = 4    # triangles per leaf of a triangle_tree
+
+
+def box_tree(lo, hi, keys, per_leaf: int, dtype):
+    """A complete binary tree of boxes over N items with boxes [lo, hi] ((N, 3) each; an
+    infinite side may be given as -EMPTY or +EMPTY), split top-down at the median of `keys`
+    ((N, 3) points, e.g. the items' centres) along the axis where they spread most.
+
+    Returns (order, leaves, boxes): order (N,) int32 lists the items leaf by leaf (leaf k
+    holds order[k per_leaf : (k + 1) per_leaf]); leaves, a power of two, is the number of
+    leaves; boxes (2 leaves, 6) in `dtype` holds (lo, hi) of node i at row i, in heap order
+    (root 1, children 2i and 2i + 1, leaf k at row leaves + k; row 0 unused). Boxes grow by
+    a few units in the last place of `dtype`, so that they hold their items as the kernels
+    compute them."""
+    lo = np.asarray(lo, dtype=np.float64)
+    hi = np.asarray(hi, dtype=np.float64)
+    count = len(lo)
+    leaves = 1
+    while leaves * per_leaf < count:
+        leaves *= 2
+    slots = leaves * per_leaf
+    # Padding items (no key: they sort last in every node) fill the last leaves.
+    keys = np.vstack([np.asarray(keys, dtype=np.float64), np.full((slots - count, 3), np.nan)])
+    order = np.arange(slots)
+    size = slots
+    while size > per_leaf:
+        node = np.arange(slots) // size
+        starts = np.arange(0, slots, size)
+        k = keys[order]
+        spread = np.fmax.reduceat(k, starts, axis=0) - np.fmin.reduceat(k, starts, axis=0)
+        axis = np.argmax(np.nan_to_num(spread, nan=-1.0), axis=1)[node]
+        key = np.nan_to_num(k[np.arange(slots), axis], nan=np.inf)
+        order = order[np.lexsort((key, node))]
+        size //= 2
+    slack = 4.0 * np.finfo(dtype).eps
+    padded_lo = np.full((slots, 3), EMPTY)
+    padded_hi = np.full((slots, 3), -EMPTY)
+    real = order < count
+    padded_lo[real] = lo[order[real]] - slack * (1.0 + np.abs(lo[order[real]]))
+    padded_hi[real] = hi[order[real]] + slack * (1.0 + np.abs(hi[order[real]]))
+    boxes = np.empty((2 * leaves, 6))
+    boxes[0] = (EMPTY,) * 3 + (-EMPTY,) * 3
+    boxes[leaves:, :3] = padded_lo.reshape(leaves, per_leaf, 3).min(axis=1)
+    boxes[leaves:, 3:] = padded_hi.reshape(leaves, per_leaf, 3).max(axis=1)
+    level = leaves // 2
+    while level >= 1:
+        boxes[level:2 * level, :3] = np.minimum(boxes[2 * level:4 * level:2, :3], boxes[2 * level + 1:4 * level:2, :3])
+        boxes[level:2 * level, 3:] = np.maximum(boxes[2 * level:4 * level:2, 3:], boxes[2 * level + 1:4 * level:2, 3:])
+        level //= 2
+    return order[real].astype(np.int32), leaves, np.clip(boxes, -EMPTY, EMPTY).astype(dtype)
+
+
+def triangle_tree(vertices, faces, dtype):
+    """A mesh's triangles (vertices (V, 3) as the kernels read them, faces (F, 3)) under a
+    box_tree of TREE_LEAF triangles a leaf: (spheres (F, 4) in dtype, centre and radius of
+    a sphere around each triangle, rounded up so that it holds the triangle in dtype too;
+    then box_tree's order, leaves, boxes)."""
+    corners = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
+    centers = corners.mean(axis=1)
+    radii = np.linalg.norm(corners - centers[:, None], axis=2).max(axis=1)
+    spheres = np.column_stack([centers, radii * (1 + 1e-5) + 1e-7 * (1 + np.abs(centers).max(axis=1))])
+    order, leaves, boxes = box_tree(corners.min(axis=1), corners.max(axis=1), centers, TREE_LEAF, dtype)
+    return spheres.astype(dtype), order, leaves, boxes
+
+
+@ti.func
+def _pool_vertex(g: ti.template(), vertices, v) -> vec3:
+    k = vertices + 3 * v
+    return vec3(g.fpool[k], g.fpool[k + 1], g.fpool[k + 2])
+
+
+@ti.func
+def nearer_triangle(g: ti.template(), vertices, triangles, spheres, tri, p: vec3, best, point: vec3):
+    """(best, point) improved by triangle `tri` of a mesh in the pools: vertex v at
+    fpool[vertices + 3 v], the triangle's vertex indices at ipool[triangles + 3 tri], its
+    bounding sphere at fpool[spheres + 4 tri] (the triangle is skipped when the sphere
+    lies no nearer than best); and a lower bound on the triangle's distance (the distance
+    itself, or the sphere's)."""
+    k = spheres + 4 * tri
+    low = (p - vec3(g.fpool[k], g.fpool[k + 1], g.fpool[k + 2])).norm() - g.fpool[k + 3]
+    if low < best:
+        t = triangles + 3 * tri
+        found = closest_on_triangle(p, _pool_vertex(g, vertices, g.ipool[t]), _pool_vertex(g, vertices, g.ipool[t + 1]),
+                                    _pool_vertex(g, vertices, g.ipool[t + 2]))
+        low = (p - found).norm()
+        if low < best:
+            best, point = low, found
+    return best, point, low
+
+
+@ti.func
+def box_gap(g: ti.template(), base, node, p: vec3):
+    """Distance from p to the box of tree node `node`, whose boxes start at fpool[base]."""
+    k = base + 6 * node
+    lo = vec3(g.fpool[k], g.fpool[k + 1], g.fpool[k + 2])
+    hi = vec3(g.fpool[k + 3], g.fpool[k + 4], g.fpool[k + 5])
+    return ti.max(lo - p, p - hi, 0.0).norm()
+
+
+@ti.func
+def tree_nearest(g: ti.template(), ci, base, leaves, p: vec3, best, point: vec3, leaf_nearest: ti.template(),
+                 seeded: ti.template(), certain):
+    """The nearest item of a box_tree to p, if nearer than `best` (with its `point`), the
+    distance already known or the farthest the caller needs to look: (distance, closest
+    point, floor). `leaf_nearest(g, ci, leaf, p, best, point)` searches the items of one
+    leaf and returns the improved (best, point) and a lower bound on the distance to its
+    items. Exact: a box is skipped only when no point in it is nearer than `best`. When
+    nothing nearer than the given best is found, `floor` (>= best) is a lower bound on the
+    distance to every item: the least of the skipped boxes' gaps and the leaves' bounds.
+
+    seeded (compile time): first call leaf_nearest with leaf -1, the caller's own first
+    guess (the cells around p, say), and stop there when its best is within `certain` (the
+    distance from p to everything that guess left out).
+
+    The walk visits the nearer child first; `second` holds, per depth, whether the node on
+    the current path is its parent's second child: after a node, the walk climbs over
+    second children and moves to the first such sibling not yet visited."""
+    node = 0 if ti.static(seeded) else 1  # node 0: the caller's guess, then the root
+    depth = 0
+    second = 0
+    floor = INFINITY
+    gap = 0.0
+    known = 0  # whether `gap` is the current node's (node 0, the guess, has none)
+    if ti.static(seeded):
+        known = 1
+    while True:
+        if known == 0:
+            gap = box_gap(g, base, node, p)
+        known = 0
+        descended = False
+        if gap >= best:
+            floor = ti.min(floor, gap)
+        elif node == 0 or node >= leaves:
+            best, point, low = leaf_nearest(g, ci, node - leaves if node != 0 else -1, p, best, point)
+            floor = ti.min(floor, low)
+        else:
+            near = 2 * node
+            gap = INFINITY
+            for child in range(2 * node, 2 * node + 2):
+                child_gap = box_gap(g, base, child, p)
+                if child_gap < gap:
+                    near, gap = child, child_gap
+            node = near
+            known = 1
+            depth += 1
+            second &= ~(1 << depth)
+            descended = True
+        if node == 0:
+            if best <= certain:
+                floor = ti.min(floor, certain)
+                break
+            node = 1
+        elif not descended:
+            while depth > 0 and ((second >> depth) & 1) == 1:
+                node >>= 1
+                depth -= 1
+            if depth == 0:
+                break
+            node ^= 1
+            second |= 1 << depth
+    return best, point, floor

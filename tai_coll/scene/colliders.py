@@ -13,11 +13,19 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-from .. import runtime
+from .. import notices, runtime
 from ..geometry import kinds
 from ..geometry.colliders import Collider
 from ..materials import Material
 from ..types import ColliderArgs
+
+
+#: The most a kinematic collider may turn in one substep (rad) before the scene warns.
+#: Contacts with it are found along straight paths relative to it and take its surface
+#: velocity from the substep's mean rates: a particle struck by a turning arm leaves within
+#: 1.5 % of the arm's surface speed at 0.3 rad a substep, 6 % at 0.5 rad, 20 % at 1 rad
+#: (measured, tests/test_fast_paddle.py), and a turn past about 1.5 rad can miss it.
+MAX_TURN = 0.3
 
 
 @dataclass
@@ -43,6 +51,7 @@ class ColliderTable:
         self.entries: list[ColliderEntry] = []
         self.capacity = 0
         self.version = 0  # counts uploads: colliders added, moved or changed
+        self._warned_turn = set()  # ids of the entries warned about turning too far in a substep
         self._args = None  # the argument pack, built when first asked for (see `args`)
         self._allocate(capacity)
 
@@ -112,9 +121,24 @@ class ColliderTable:
                 pose1 = e.motion.pose(e.shape.center, e.shape.rotation, t0 + dt)
                 e.velocity, e.angular_velocity = e.motion.rates(pose0, pose1, dt)
                 e.center, e.rotation = pose1
+                self._check_turn(e, dt)
             poses0.append(pose0)
             poses1.append(pose1)
         self._upload_poses(poses0, poses1)
+
+    def _check_turn(self, entry: ColliderEntry, dt: float):
+        """Warn once per collider that turns more than MAX_TURN in a substep."""
+        speed = float(np.linalg.norm(entry.angular_velocity))
+        if speed * dt > MAX_TURN and id(entry) not in self._warned_turn:
+            self._warned_turn.add(id(entry))
+            index = self.entries.index(entry)
+            notices.warn(
+                f"collider {index} ({type(entry.shape).__name__}) turns {speed * dt:.3g} rad in a substep of dt = "
+                f"{dt:.3g} s (angular speed {speed:.4g} rad/s). Contacts with a moving collider are found along "
+                "straight paths relative to it and get its surface velocity from its mean rates over the substep, "
+                f"which beyond {MAX_TURN} rad a substep misjudge them by percents (and past about 1.5 rad can miss "
+                "them): use dt <= "
+                f"{MAX_TURN / speed:.3g} s", RuntimeWarning)
 
     def upload_all(self):
         self.version += 1

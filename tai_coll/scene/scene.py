@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-import warnings
 
 import numpy as np
 
-from .. import runtime, validate
+from .. import notices, runtime, validate
 from ..errors import SimulationError
 from ..geometry.colliders import Collider
 from ..materials import Material
@@ -206,13 +205,13 @@ class Scene:
         self._limits = self.solver.time_step_limits(self._world)
         if not self._stepping.auto:  # ("auto" picks a dt within the limits, or warns that it cannot)
             for message in self.solver.check(self._world, self.dt):
-                self._warn_once(message, stacklevel=4)
+                self._warn_once(message)
         self._watch_stability()
 
-    def _warn_once(self, message: str, stacklevel: int):
+    def _warn_once(self, message: str):
         if message not in self._solver_warned:
             self._solver_warned.add(message)
-            warnings.warn(message, RuntimeWarning, stacklevel=stacklevel)
+            notices.warn(message, RuntimeWarning)
 
     def _watch_stability(self):
         """Watch the speeds while dt is beyond the stability limit of the solver's stiffest
@@ -233,7 +232,7 @@ class Scene:
             self._warn_once(f"substeps='auto': this scene needs more than max_substeps = {self._stepping.max_substeps}"
                             f" substeps a frame at times: frames then take max_substeps substeps of "
                             f"{self._stepping.frame_dt / n:.3g} s, beyond the scene's limits (see stats()). Raise "
-                            "max_substeps", 5)
+                            "max_substeps")
         dt = self._stepping.frame_dt / n
         if dt != self.dt:
             self._time_base, self._substep_count, self.dt = self.time, 0, dt
@@ -257,20 +256,18 @@ class Scene:
             dropped = self._pairs.neighbour_overflow
             if dropped:
                 self._warned_dropped = True
-                warnings.warn(
+                notices.warn(
                     f"neighbour lists were full by t = {self.time:.6g} s: {dropped} neighbour(s) of particles with "
                     f"more than {NEIGHBOUR_CAPACITY} others within reach were left out, and contacts with them "
                     "missed (the running count: neighbour_overflow of what enable_particle_collisions returned). "
                     "The lists reach r_i + r_j + a margin (contact_margin, or a quarter of the smaller radius) "
-                    "and verlet_skin: smaller ones, or a pile less crushed, keep them short", RuntimeWarning,
-                    stacklevel=3)
+                    "and verlet_skin: smaller ones, or a pile less crushed, keep them short", RuntimeWarning)
         if (self._pairs is not None and self.solver.pair_model == "dem" and not self._warned_crushed
                 and not self._pairs.placing):
             self._check_crushed()
         if fresh["left_domain"]:
-            warnings.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
-                          f"frozen ({totals['left_domain']} in all); see Scene.particle_status()", RuntimeWarning,
-                          stacklevel=3)
+            notices.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
+                          f"frozen ({totals['left_domain']} in all); see Scene.particle_status()", RuntimeWarning)
 
     def _check_crushed(self):
         """DEM pairs: warn once when particles overlap by more than CRUSHED_OVERLAP of the
@@ -279,13 +276,13 @@ class Scene:
         deepest = self._pairs.overlap(self._world)["max"]
         if deepest > CRUSHED_OVERLAP:
             self._warned_crushed = True
-            warnings.warn(
+            notices.warn(
                 f"particles overlap by up to {100 * deepest:.0f} % of the smaller radius at t = {self.time:.6g} s: "
                 "the DEM contacts are too soft for the load they carry (a spring holds a load at overlap = load / "
                 "k; with hertz=, each contact's stiffness follows the masses of its particles, so a light particle "
                 "cannot hold up a heavy one). Give PenaltySolver(stiffness=...) in N/m for the heaviest load, with "
                 "substeps='auto', or use the impulse solver, whose shock propagation keeps piles of any mass "
-                "ratio apart", RuntimeWarning, stacklevel=4)
+                "ratio apart", RuntimeWarning)
 
     def _check_divergence(self):
         """dt is beyond the stability limit (see _watch_stability): stop a run whose particles
@@ -370,8 +367,8 @@ class Scene:
 
     def status(self) -> np.ndarray:
         """The old name of particle_status() (removed in tai_coll 0.3)."""
-        warnings.warn("Scene.status() is now called particle_status(); the old name will be removed in tai_coll 0.3",
-                      DeprecationWarning, stacklevel=2)
+        notices.warn("Scene.status() is now called particle_status(); the old name will be removed in tai_coll 0.3",
+                      DeprecationWarning)
         return self.particle_status()
 
     def stats(self) -> dict:

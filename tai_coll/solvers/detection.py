@@ -16,7 +16,7 @@ import taichi as ti
 
 from ..geometry import kinds
 from ..geometry.dispatch import world_crossing, world_sdf
-from ..types import vec3
+from ..types import mat3, vec3
 
 # Relative size of a normal velocity component that counts as round-off, not approach.
 APPROACH_EPS = 1e-6
@@ -38,14 +38,14 @@ def is_still(c: ti.template(), ci) -> bool:
 
 
 @ti.func
-def collider_sdf(c: ti.template(), groups: ti.template(), ci, x: vec3, end_pose: bool):
+def collider_sdf(c: ti.template(), groups: ti.template(), ci, x: vec3, end_pose: bool, reach=INFINITY):
     """phi and normal at x with the collider at the substep's end pose (or start pose)."""
     center = c.center0[ci]
     rotation = c.rotation0[ci]
     if end_pose:
         center = c.center1[ci]
         rotation = c.rotation1[ci]
-    return world_sdf(c, groups, ci, c.kind[ci], c.params[ci], center, rotation, x)
+    return world_sdf(c, groups, ci, c.kind[ci], c.params[ci], center, rotation, x, reach)
 
 
 @ti.func
@@ -68,34 +68,81 @@ def keep_two_smallest(first, first_id, second, value, value_id):
 
 
 @ti.func
-def carried(c: ti.template(), ci, x: vec3, elapsed) -> vec3:
-    """Where the point x, taken at `elapsed` (fraction of the substep), sits relative to the
-    collider's end pose once carried along with the collider: sweeping from there to x1
-    against the end pose is the particle's path relative to a moving collider. Exact at
-    elapsed = 0; later, the translation is interpolated. Static colliders: x itself."""
-    start = c.center0[ci] + elapsed * (c.center1[ci] - c.center0[ci])
-    return c.center1[ci] + c.rotation1[ci] @ (c.rotation0[ci].transpose() @ (x - start))
+def carried(c: ti.template(), ci, x: vec3) -> vec3:
+    """Where the point x, taken at time t, sits relative to the collider's end pose once
+    carried along with the collider, c1 + R1 R0^T (x - c0): sweeping from there to x1 against
+    the end pose is the particle's path relative to a moving collider. Exact for any rigid
+    motion. Still colliders: x itself, without the transform (whose round-off would move a
+    particle at rest)."""
+    out = x
+    if not is_still(c, ci):
+        out = c.center1[ci] + c.rotation1[ci] @ (c.rotation0[ci].transpose() @ (x - c.center0[ci]))
+    return out
 
 
 @ti.func
-def detect(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3, v_alt: vec3, r, slop):
-    """Returns (collider index or -1, outward normal, surface velocity at the contact) for
-    velocity v, the same for a second velocity v_alt from the same geometric sweep (the
-    elastic pass tests v(t), the contact pass after it the candidate velocity: one sweep
-    serves both when the first finds nothing to bounce off), and the clearance of x1.
+def turned_by(w: vec3) -> mat3:
+    """The rotation by |w| radians about w (Rodrigues: I + sin a K + (1 - cos a) K^2)."""
+    angle = w.norm()
+    rotation = ti.Matrix.identity(float, 3)
+    if angle > 0.0:
+        k = w / angle
+        cross = ti.Matrix([[0.0, -k.z, k.y], [k.z, 0.0, -k.x], [-k.y, k.x, 0.0]])
+        rotation += ti.sin(angle) * cross + (1.0 - ti.cos(angle)) * (cross @ cross)
+    return rotation
+
+
+@ti.func
+def carried_from(c: ti.template(), ci, x: vec3, elapsed, dt) -> vec3:
+    """`carried` for a point taken `elapsed` (a fraction of the substep dt) into the substep:
+    the pose then is the start pose turned by w elapsed dt (w: the substep's angular
+    velocity, R1 = exp(w dt) R0), its centre interpolated between c0 and c1."""
+    out = x
+    if not is_still(c, ci):
+        center = c.center0[ci] + elapsed * (c.center1[ci] - c.center0[ci])
+        back = turned_by(-elapsed * dt * c.angular_velocity[ci])  # R(elapsed)^T = R0^T exp(-w elapsed dt)
+        out = c.center1[ci] + c.rotation1[ci] @ (c.rotation0[ci].transpose() @ (back @ (x - center)))
+    return out
+
+
+@ti.func
+def carried_normal(c: ti.template(), ci, n: vec3) -> vec3:
+    """A direction taken against the start pose, carried to the end pose (R1 R0^T n)."""
+    out = n
+    if not is_still(c, ci):
+        out = c.rotation1[ci] @ (c.rotation0[ci].transpose() @ n)
+    return out
+
+
+@ti.func
+def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3, x1: vec3, v: vec3,
+           v_alt: vec3, r, slop):
+    """Returns the contact for velocity v: (collider or -1, outward normal, the surface's
+    velocity there, when it is met: a fraction of the substep and of the path); the same for a
+    second velocity v_alt from the same geometric sweep (the elastic pass tests v(t), the
+    contact pass after it the candidate velocity: one sweep serves both when the first finds
+    nothing to bounce off); and the clearance of x1 (a lower bound of the gap over the
+    colliders, a moving collider's less the distance it carried x0), the collider it belongs
+    to and the smallest over the others. kinematic: whether the table holds moving colliders
+    (compile time: without, none of the relative-motion code is compiled in).
 
     A collider is a candidate when
     - x1 interferes (phi(x1) < r) and lies deeper than x0 did: a particle resting or sliding
       within the slop band keeps its depth and is not processed again;
-    - or x1 is clear but the segment x0 -> x1 crosses the shape (continuous detection).
-    Its contact is where the segment first touches: x0 itself for a particle already in the
-    band (normal at x0), else the crossing point (docs/physics.md 1). That normal, not the one at
-    the deepest point x1, is what keeps a sliding particle on a curved surface and gives the
-    right face at a box edge. Non-convex colliders (meshes, terrain) add one case: when x1
-    sinks deeper but the velocity no longer approaches that contact (it slid along one face
-    of a concave crease into the next), the normal at x1 is used. Among candidates that `v`
-    approaches, the earliest contact wins (ties: the deepest x1). x0 deeper than the slop:
-    skipped, the last-resort repulsion owns it.
+    - or x1 is clear but the path crosses the shape (continuous detection).
+    The path is the particle's relative to the collider (docs/physics.md 3.6): from x0 carried
+    with the collider to its end pose, to x1, against the end pose, so a collider that moves
+    across a particle within the substep is met as a particle crossing it would be. A still
+    collider's relative path is x0 -> x1 itself (no transform).
+    Its contact is where the path first touches: x0 (carried) for a particle already in the
+    band (normal at x0, fraction 0), else the crossing point (docs/physics.md 1). That normal,
+    not the one at the deepest point x1, is what keeps a sliding particle on a curved surface
+    and gives the right face at a box edge. Non-convex colliders (meshes, terrain) add one
+    case: when x1 sinks deeper but the velocity no longer approaches that contact (it slid
+    along one face of a concave crease into the next), the normal at x1 is used (fraction 0:
+    nothing is known of where that face was met). Among candidates that `v` approaches, the
+    earliest contact wins (ties: the deepest x1). x0 deeper than the slop: skipped, the
+    last-resort repulsion owns it.
     """
     length = (x1 - x0).norm()
     clearance = INFINITY  # smallest gap lower bound over colliders, at x1
@@ -106,15 +153,28 @@ def detect(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3,
     found = -1
     found_n = vec3(0.0, 1.0, 0.0)
     found_vs = vec3(0.0, 0.0, 0.0)
+    found_when = 0.0
     alt_t = 2.0
     alt_gap = 0.0
     alt = -1
     alt_n = vec3(0.0, 1.0, 0.0)
     alt_vs = vec3(0.0, 0.0, 0.0)
+    alt_when = 0.0
     for ci in range(c.count):
+        # The relative path: x0 carried with a moving collider to its end pose, then to x1.
+        start = x0
+        path = length
+        carry = 0.0  # how far the collider carried x0: its clearance counts for a path that long less
+        moving = False
+        if ti.static(kinematic):
+            moving = not is_still(c, ci)
+            if moving:
+                start = carried(c, ci, x0)
+                path = (x1 - start).norm()
+                carry = (start - x0).norm()
         reach = (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] - r
-        if reach >= length:
-            clearance, nearest, second = keep_two_smallest(clearance, nearest, second, reach, ci)
+        if reach >= path:
+            clearance, nearest, second = keep_two_smallest(clearance, nearest, second, reach - carry, ci)
             continue
         # k = 0: x1 against the end pose; k = 1: x0 against the start pose, only if needed.
         gap1 = 0.0
@@ -123,13 +183,13 @@ def detect(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3,
         n1 = vec3(0.0, 1.0, 0.0)
         candidate = False
         for k in range(2):
-            phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0)
+            phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0, r + path)
             if k == 0:
                 gap1, n1 = phi - r, n
-                clearance, nearest, second = keep_two_smallest(clearance, nearest, second, gap1, ci)
-                # Interference, or a clear end that the segment may still reach (phi is
-                # 1-Lipschitz, so a gap beyond the segment's length rules a crossing out).
-                candidate = gap1 < length
+                clearance, nearest, second = keep_two_smallest(clearance, nearest, second, gap1 - carry, ci)
+                # Interference, or a clear end that the path may still reach (phi is
+                # 1-Lipschitz, so a gap beyond the path's length rules a crossing out).
+                candidate = gap1 < path
                 if not candidate:
                     break
             else:
@@ -141,10 +201,11 @@ def detect(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3,
         if candidate:
             t = 0.0
             n = n0
-            start = x0
+            if ti.static(kinematic):
+                if moving:
+                    n = carried_normal(c, ci, n0)  # x0's normal, carried to the end pose with x0
             if gap0 >= 0.0:
-                # Sweep the path relative to the collider, against its end pose.
-                start = carried(c, ci, x0, 0.0)
+                # Sweep the relative path against the end pose.
                 hit, t_hit, n_hit = world_crossing(c, groups, ci, c.kind[ci], c.params[ci], c.center1[ci],
                                                    c.rotation1[ci], start, x1, r)
                 candidate = hit
@@ -153,31 +214,41 @@ def detect(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3,
                 vs = surface_velocity(c, ci, start + t * (x1 - start) - r * n)
                 n_v = n
                 n_alt = n
+                when_v = t
+                when_alt = t
                 if gap1 < ti.min(gap0, 0.0) and not kinds.is_convex(c.kind[ci]):
                     # A concave crease: x1 sinks into another face than the one first met,
                     # which the velocity no longer approaches; respond to x1's face.
                     if not approaching(v, vs, n):
                         n_v = n1
+                        when_v = 0.0
                     if not approaching(v_alt, vs, n):
                         n_alt = n1
+                        when_alt = 0.0
                 if (t < best_t or (t == best_t and gap1 < best_gap)) and approaching(v, vs, n_v):
-                    found, best_t, best_gap, found_n, found_vs = ci, t, gap1, n_v, vs
+                    found, best_t, best_gap, found_n, found_vs, found_when = ci, t, gap1, n_v, vs, when_v
                 if (t < alt_t or (t == alt_t and gap1 < alt_gap)) and approaching(v_alt, vs, n_alt):
-                    alt, alt_t, alt_gap, alt_n, alt_vs = ci, t, gap1, n_alt, vs
-    return found, found_n, found_vs, alt, alt_n, alt_vs, clearance, nearest, second
+                    alt, alt_t, alt_gap, alt_n, alt_vs, alt_when = ci, t, gap1, n_alt, vs, when_alt
+    return found, found_n, found_vs, found_when, alt, alt_n, alt_vs, alt_when, clearance, nearest, second
 
 
 @ti.func
-def keep_out(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, r):
-    """Move x1 out along each collider's normal to no deeper than x0 was (or to the surface):
-    for positions that another phase moved (particle-particle projection), where no velocity
-    approaches the collider and the contact passes would leave the penetration alone."""
+def keep_out(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3, x1: vec3, r):
+    """Move x1 out of each collider to no deeper than x0 was (or to the surface): for
+    positions that another phase moved (particle-particle projection), where no velocity
+    approaches the collider and the contact passes would leave the penetration alone.
+
+    Out along the normal at x1, unless that normal points along the particle's path relative
+    to the collider while x0 was outside: then x1 lies past the middle of a thin or fast
+    collider, whose nearest face is the far one, and it goes back out by the side it came
+    from, onto the plane through x0's contact point with x0's normal (which, for a convex
+    collider, clears it)."""
     for ci in range(c.count):
         if (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] < r:
             gap1 = 0.0
             n1 = vec3(0.0, 1.0, 0.0)
             for k in range(2):
-                phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0)
+                phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0, r)
                 if k == 0:
                     gap1, n1 = phi - r, n
                     if gap1 >= 0.0:
@@ -185,39 +256,86 @@ def keep_out(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, r):
                 else:
                     allowed = ti.min(phi - r, 0.0)
                     if gap1 < allowed:
-                        x1 += (allowed - gap1) * n1
+                        start = x0
+                        n0 = n
+                        if ti.static(kinematic):
+                            start = carried(c, ci, x0)
+                            n0 = carried_normal(c, ci, n)
+                        if phi >= 0.0 and n1.dot(x1 - start) > 0.0 and n0.dot(n1) < 0.0:
+                            # through to the far side: back to the plane of x0's contact
+                            x1 += ti.max((start - x1).dot(n0) - (phi - r) + allowed, 0.0) * n0
+                        else:
+                            x1 += (allowed - gap1) * n1
     return x1
 
 
 @ti.func
-def start_penetration(c: ti.template(), groups: ti.template(), ci, x0: vec3, r, slop):
+def start_penetration(c: ti.template(), groups: ti.template(), kinematic: ti.template(), ci, x0: vec3, v0: vec3,
+                      r, slop, dt):
     """If x0 was inside collider ci at time t (beyond the slop), return (True, depth, normal,
-    contact point) measured against the end pose; else (False, ...)."""
+    contact point, entered), relative to the end pose (x0 carried with the collider); else
+    (False, ...).
+
+    The normal is the nearest face's, and depth the distance to it. For a moving collider
+    that the particle entered within the last substep (a substep back along its relative
+    velocity, x0 - dt (v0 - v_s), it was clear), the face it came in by is taken instead:
+    the normal at that earlier point, and depth the distance back out to the plane through
+    its contact point (for a convex collider, clear of it); entered is True. A collider that
+    overran the particle (a turn too fast for its straight relative path, a particle pushed
+    into a plate) thus pushes it out in front, not through its far side."""
     inside = False
+    entered = False
     phi = r
     n = vec3(0.0, 1.0, 0.0)
+    point = x0
+    depth = 0.0
     if (x0 - c.center0[ci]).norm() - c.params[ci][BOUND_SLOT] < r:  # else outside the bounding sphere
-        for k in range(2):
-            phi, n = collider_sdf(c, groups, ci, x0, k == 1)
-            if k == 0:
-                inside = phi < r - slop
-                if not inside:
-                    break
-    return inside, r - phi, n, x0 - phi * n
+        if ti.static(not kinematic):
+            phi, n = collider_sdf(c, groups, ci, x0, False, r)
+            inside = phi < r - slop
+            point = x0 - phi * n
+        else:
+            here = x0
+            back = x0
+            # k = 0: x0 against the start pose; k = 1: a substep back, against the end pose
+            for k in range(2):
+                phi_k, n_k = collider_sdf(c, groups, ci, x0 if k == 0 else back, k == 1, r)
+                if k == 0:
+                    phi, n = phi_k, n_k
+                    inside = phi < r - slop
+                    point = x0 - phi * n
+                    if not inside or is_still(c, ci):
+                        break
+                    here = carried(c, ci, x0)
+                    n = carried_normal(c, ci, n)
+                    point = here - phi * n
+                    back = here - dt * (v0 - surface_velocity(c, ci, here))
+                elif phi_k >= r and n_k.dot(n) < 0.0:
+                    # it came in by another face than the nearest: out by that one
+                    entered = True
+                    n = n_k
+                    depth = ti.max((back - here).dot(n_k) - (phi_k - r), 0.0)
+                    point = back - phi_k * n_k
+    if not entered:
+        depth = r - phi
+    return inside, depth, n, point, entered
 
 
 @ti.func
-def earliest_approach(c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3, v: vec3, elapsed, r, slop):
+def earliest_approach(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3, x1: vec3,
+                      v: vec3, elapsed, dt, r, slop):
     """For the exact-time scheme: the first collider that the path x0 -> x1 (starting at
-    `elapsed`, a fraction of the substep) touches while approaching it, swept relative to
+    `elapsed`, a fraction of the substep dt) touches while approaching it, swept relative to
     each collider. Returns (collider or -1, fraction t of the path, normal, surface velocity)."""
     found = -1
     first_t = 2.0
     first_n = vec3(0.0, 1.0, 0.0)
     first_vs = vec3(0.0, 0.0, 0.0)
     for ci in range(c.count):
-        start = carried(c, ci, x0, elapsed)
-        phi, n0 = collider_sdf(c, groups, ci, start, True)
+        start = x0
+        if ti.static(kinematic):
+            start = carried_from(c, ci, x0, elapsed, dt)
+        phi, n0 = collider_sdf(c, groups, ci, start, True, r + (x1 - start).norm() + slop)
         if phi - r < (x1 - start).norm() + slop and phi >= r - slop:
             hit, t, n = world_crossing(c, groups, ci, c.kind[ci], c.params[ci], c.center1[ci], c.rotation1[ci], start,
                                        x1, r)

@@ -14,7 +14,11 @@ repulsion; then resolve the candidate with the chosen scheme:
                     planes and spheres, root finding for the other shapes.
 
 Loops are capped; a particle still interfering after the cap gets the failsafe: it stops
-relative to the collider (v = surface velocity, x1 = x + dt v).
+relative to the collider (v = surface velocity, x1 = x carried with the collider).
+
+Every contact is taken relative to its collider (docs/physics.md 3.6): the kernels compile
+that code in only for a collider table with moving colliders (`kinematic`), so still scenes
+run the plain formulas.
 
 Kernels take the particle store and the collider table as argument packs (`p`, `c`:
 types.ParticleArgs, types.ColliderArgs) and `groups`, the compile-time mask of the collider
@@ -32,7 +36,8 @@ from ..response.penalty import FIELD_NONE, apply_repulsion
 from ..response.repulsion import RepulsionField, pack
 from ..types import ACTIVE, ARRAY, NON_FINITE, STAT_FAILSAFE, STAT_REPULSION, ColliderArgs, ParticleArgs, vec3
 from .base import Solver
-from .detection import detect, earliest_approach, is_still, keep_out, start_penetration, surface_velocity
+from .detection import (carried, detect, earliest_approach, is_still, keep_out, start_penetration,
+                        surface_velocity)
 from .integrate import (flag, flight_path_bound, flight_stays_inside, free_flight, state_status, store,
                         symplectic_euler)
 
@@ -56,24 +61,29 @@ def apply_law(c: ti.template(), ci, v: vec3, n: vec3, vs: vec3, restitution, wet
 
 
 @ti.func
-def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.template(), x0: vec3, x1: vec3,
-                             v1: vec3, r, m, slop, dt, last_resort: last_resort6, max_push_speed,
-                             wet_law: ti.template()):
-    """Last resort (docs/physics.md 3, seed 001): a particle already inside a collider at
+def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(),
+                             x0: vec3, v0: vec3, x1: vec3, v1: vec3, r, m, slop, dt, last_resort: last_resort6,
+                             max_push_speed, wet_law: ti.template()):
+    """Last resort (docs/physics.md 3.4, seed 001): a particle already inside a collider at
     time t keeps its penetration for this substep and is pushed out along the normal by
     last_resort[0] (the push fraction) x depth, at most max_push_speed x dt. The push moves
     the position only; the velocity gets the inelastic law (e = 0, friction as usual), so a
     particle freed from a collider does not fly off with the push as velocity. With a
     repulsion field in last_resort[1:] (seed 002), the field acts on the velocity, at gap
-    -depth, instead."""
+    -depth, instead. A moving collider that the particle entered within the last substep
+    (start_penetration's `entered`) is a contact missed, not a penetration: the particle
+    goes out through the face it came in by, the whole way at once, and moves on with the
+    collider (e = 0), so a paddle's far face never pushes it out behind."""
     push = vec3(0.0, 0.0, 0.0)
     for ci in range(c.count):
-        inside, depth, n, point = start_penetration(c, groups, ci, x0, r, slop)
+        inside, depth, n, point, entered = start_penetration(c, groups, kinematic, ci, x0, v0, r, slop, dt)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
             v1 = apply_law(c, ci, v1, n, vs, 0.0, wet_law)
             field_kind = ti.cast(last_resort[1], ti.i32)
-            if field_kind == FIELD_NONE:
+            if entered:
+                push += depth * n
+            elif field_kind == FIELD_NONE:
                 push += ti.min(last_resort[0] * depth, max_push_speed * dt) * n
             else:
                 v1 = vs + apply_repulsion(v1 - vs, n, -depth, m, dt, field_kind, ti.cast(last_resort[2], ti.i32),
@@ -84,19 +94,23 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
 
 
 @ti.func
-def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0: vec3, push: vec3, v0: vec3,
-                   x1: vec3,
-                   v1: vec3, r, slop, dt, elastic_passes, contact_passes,
+def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3,
+                   push: vec3, v0: vec3, x1: vec3, v1: vec3, r, slop, dt, elastic_passes, contact_passes,
                    first_contact_elastic: ti.template(), failsafe: ti.template(), wet_law: ti.template()):
     """The simple, micro-collision and elastic-then-contact schemes as one loop.
 
     Elastic passes (Implementation 3): the law with restitution on the start velocity v(t);
     its change is added to the candidate (x1 += dt dv, v1 += dv).
-    Contact passes: the law on the average velocity, then re-integration from the start,
-    x1 = x0 + push + dt v_new. The average velocity is v1 itself: x1 = x0 + push + dt v1
-    holds throughout, and recomputing it as (x1 - x0)/dt would add position round-off / dt,
-    which in f32 is enough to fake an approach. Restitution only on the first contact pass
-    when first_contact_elastic (Implementations 1 and 2), e = 0 otherwise, so the loop ends.
+    Contact passes: the law on the average velocity, then re-integration. The average
+    velocity is v1 itself (recomputing it as (x1 - x0)/dt would add position round-off / dt,
+    which in f32 is enough to fake an approach). A pass with restitution (the first of
+    Implementations 1 and 2, when first_contact_elastic) re-integrates from the start,
+    x1 = x0 + push + dt v_new; an inelastic one (e = 0: every other pass, so the loop ends)
+    follows the path to the contact, at fraction `when` of the substep, and the new velocity
+    after it, x1 = x0 + when (x1 - x0) + (1 - when) (push + dt v_new), so a particle stops on
+    the surface it meets, at any dt (docs/physics.md 3.2). Against a moving collider all of
+    this is done relative to it: x0 carried with the collider to its end pose, v - v_s
+    (docs/physics.md 3.6); for still colliders the formulas above, without transforms.
     If contacts remain after the cap: the failsafe stops the particle relative to the collider.
     One call of `detect` serves every pass, which keeps the kernel small.
     Returns (x1, v1, clearance of x1, or -1 when unknown).
@@ -107,6 +121,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0
     resolved = False
     clearance = -1.0
     last_vs = vec3(0.0, 0.0, 0.0)
+    last_start = x0
     ci = -1
     n = vec3(0.0, 1.0, 0.0)
     vs = vec3(0.0, 0.0, 0.0)
@@ -114,20 +129,22 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0
         v_test = v_start
         if elastic_left == 0:
             v_test = v1
-        ci_alt = -1
-        n_alt = n
-        vs_alt = vs
-        ci, n, vs, ci_alt, n_alt, vs_alt, near, nearest, second = detect(c, groups, x0, x1, v_test, v1, r, slop)
+        ci, n, vs, when, ci_alt, n_alt, vs_alt, when_alt, near, nearest, second = detect(c, groups, kinematic, x0, x1,
+                                                                                          v_test, v1, r, slop)
         if ci < 0 and elastic_left > 0 and ci_alt >= 0:
             # Nothing to bounce off, but the candidate velocity meets a contact: go straight to
             # the contact passes with what this sweep found.
             elastic_left = 0
-            ci, n, vs = ci_alt, n_alt, vs_alt
+            ci, n, vs, when = ci_alt, n_alt, vs_alt, when_alt
         if ci < 0:
             resolved = True
             clearance = near
             break
         last_vs = vs
+        start = x0  # where the path relative to the collider starts: x0, carried if it moves
+        if ti.static(kinematic):
+            start = carried(c, ci, x0)
+        last_start = start
         restitution = c.material[ci][0]
         if elastic_left > 0:
             elastic_left -= 1
@@ -136,6 +153,11 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0
             v_start = v_new
             v1 += dv
             x1 += dt * dv
+            if ti.static(kinematic):
+                # relative to the collider: the start carried with it rigidly (docs/physics.md
+                # 3.6), not along its surface velocity at the contact, which a turning
+                # collider's surface leaves behind (nothing changes for a still one)
+                x1 += (start - x0) - dt * vs
         else:
             if contact_done == contact_passes:
                 break
@@ -145,7 +167,15 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0
                 restitution = 0.0
             x1_before = x1
             v1 = apply_law(c, ci, v1, n, vs, restitution, wet_law)
-            x1 = x0 + push + dt * v1
+            # Re-integrate relative to the collider (docs/physics.md 3.2 and 3.6). An inelastic
+            # pass follows the relative path up to the contact, at fraction `when` of the
+            # substep, and the new relative velocity after it: the particle ends on the surface
+            # it met instead of where it stood at time t, which would leave it resting up to
+            # |g| dt^2 above a floor. A pass with restitution re-integrates from the start,
+            # x1 = x0 + dt v_new (Implementations 1 and 2). Still colliders skip the transforms.
+            if restitution > 0.0:
+                when = 0.0
+            x1 = start + when * (x1_before - start) + (1.0 - when) * (push + dt * (v1 - vs))
             contact_done += 1
             # A still, convex collider cannot be met again after its own contact pass: x1
             # now lies on the outer side of the plane tangent at the contact (or no deeper
@@ -157,16 +187,16 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), x0
                 break
     if ti.static(failsafe):
         if not resolved:
-            # Failsafe (docs/physics.md 3): stop relative to the collider.
+            # Failsafe (docs/physics.md 3.4): stop relative to the collider, carried with it.
             v1 = last_vs
-            x1 = x0 + push + dt * last_vs
+            x1 = last_start + push
             ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
     return x1, v1, clearance
 
 
 @ti.func
-def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template(), x0: vec3, v1: vec3, r, slop,
-                       dt, max_iterations, rest_speed, wet_law: ti.template()):
+def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3,
+                       v1: vec3, r, slop, dt, max_iterations, rest_speed, wet_law: ti.template()):
     """Backing up time: move along the straight path to the first contact, apply the law
     there, go on for the remaining time. Approach speeds below rest_speed get e = 0, so a
     resting particle does not bounce on the velocity gravity gave it this substep."""
@@ -177,7 +207,7 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template()
     last_vs = vec3(0.0, 0.0, 0.0)
     for _ in range(max_iterations):
         x_end = x + remaining * v
-        ci, t, n, vs = earliest_approach(c, groups, x, x_end, v, 1.0 - remaining / dt, r, slop)
+        ci, t, n, vs = earliest_approach(c, groups, kinematic, x, x_end, v, 1.0 - remaining / dt, dt, r, slop)
         if ci < 0:
             x = x_end
             done = True
@@ -217,13 +247,14 @@ def try_free_flight(x0: vec3, v0: vec3, clearance, gravity: vec3, dt, k, use_dom
 
 
 @ti.kernel
-def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), clearances: ARRAY,
-                    reuse_clearance: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float, scheme: ti.template(),
-                    wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
+def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), kinematic: ti.template(),
+                    clearances: ARRAY, reuse_clearance: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
+                    scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
                     last_resort: last_resort6, max_push_speed: float, slop_fraction: float, rest_speed: float,
                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
     """n_substeps substeps of every active particle against colliders that hold still for the
-    call; `clearances` (one per particle, in-out) are kept between launches.
+    call; `clearances` (one per particle, in-out) are kept between launches. kinematic: the
+    table holds moving colliders (compile time: their relative-motion code is compiled in).
 
     Particles are independent of each other here, so one launch runs several substeps and
     keeps each particle in registers, including its clearance: a lower bound on how far it
@@ -268,9 +299,10 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                     if clearance > step:
                         clearance -= step
                     else:
-                        x1, v1, clearance = resolve_particle(particles, colliders, groups, i, x0, v0, x1, v1, dt,
-                                                             scheme, wet_law, max_iterations, elastic_iterations,
-                                                             last_resort, max_push_speed, slop_fraction, rest_speed)
+                        x1, v1, clearance = resolve_particle(particles, colliders, groups, kinematic, i, x0, v0, x1,
+                                                             v1, dt, scheme, wet_law, max_iterations,
+                                                             elastic_iterations, last_resort, max_push_speed,
+                                                             slop_fraction, rest_speed)
                         unchanged = all(x1 == x0) and all(v1 == v0)
                     status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
                     if status == NON_FINITE:
@@ -288,9 +320,9 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
 
 
 @ti.func
-def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), i, x0: vec3, v0: vec3, x1: vec3,
-                     v1: vec3, dt, scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations,
-                     last_resort, max_push_speed, slop_fraction, rest_speed):
+def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i, x0: vec3,
+                     v0: vec3, x1: vec3, v1: vec3, dt, scheme: ti.template(), wet_law: ti.template(), max_iterations,
+                     elastic_iterations, last_resort, max_push_speed, slop_fraction, rest_speed):
     """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
     time t against the colliders with the chosen scheme. Returns (x1, v1, clearance)."""
     r = p.radius[i]
@@ -298,28 +330,30 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     clearance = -1.0
     push = vec3(0.0, 0.0, 0.0)
     if ti.static(scheme != SIMPLE):
-        x1, v1, push = repel_start_penetrations(p, c, groups, x0, x1, v1, r, p.mass[i], slop, dt, last_resort,
-                                                max_push_speed, wet_law)
+        x1, v1, push = repel_start_penetrations(p, c, groups, kinematic, x0, v0, x1, v1, r, p.mass[i], slop, dt,
+                                                last_resort, max_push_speed, wet_law)
     if ti.static(scheme == SIMPLE):
-        x1, v1, clearance = resolve_passes(p, c, groups, x0, push, v0, x1, v1, r, slop, dt, 0, 1, True, False,
-                                           wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, push, v0, x1, v1, r, slop, dt, 0, 1, True,
+                                           False, wet_law)
     elif ti.static(scheme == MICRO):
-        x1, v1, clearance = resolve_passes(p, c, groups, x0, push, v0, x1, v1, r, slop, dt, 0, max_iterations, True,
-                                           True, wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, push, v0, x1, v1, r, slop, dt, 0,
+                                           max_iterations, True, True, wet_law)
     elif ti.static(scheme == ELASTIC_CONTACT):
-        x1, v1, clearance = resolve_passes(p, c, groups, x0, push, v0, x1, v1, r, slop, dt, elastic_iterations,
-                                           max_iterations, False, True, wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, push, v0, x1, v1, r, slop, dt,
+                                           elastic_iterations, max_iterations, False, True, wet_law)
     else:
-        x1, v1 = resolve_exact_time(p, c, groups, x0 + push, v1, r, slop, dt, max_iterations, rest_speed, wet_law)
+        x1, v1 = resolve_exact_time(p, c, groups, kinematic, x0 + push, v1, r, slop, dt, max_iterations, rest_speed,
+                                    wet_law)
     return x1, v1, clearance
 
 
 @ti.kernel
 def impulse_resolve_candidates(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(),
-                               clearances: ARRAY, reuse_clearance: ti.i32, dt: float, scheme: ti.template(),
-                               wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
-                               last_resort: last_resort6, max_push_speed: float, slop_fraction: float,
-                               rest_speed: float, use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3,
+                               kinematic: ti.template(), clearances: ARRAY, reuse_clearance: ti.i32, dt: float,
+                               scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32,
+                               elastic_iterations: ti.i32, last_resort: last_resort6, max_push_speed: float,
+                               slop_fraction: float, rest_speed: float, use_domain: ti.template(), domain_lo: vec3,
+                               domain_hi: vec3,
                                contact_only: ti.template(), store_state: ti.template(),
                                # in-out
                                candidate_x: ARRAY, candidate_v: ARRAY):
@@ -329,14 +363,16 @@ def impulse_resolve_candidates(particles: ParticleArgs, colliders: ColliderArgs,
     whose kept clearance (see impulse_substep) exceeds the way from x to its candidate
     cannot touch a collider: it is left as it is, without a query."""
     for i in range(particles.count):
-        resolve_candidate(particles, colliders, groups, i, clearances, reuse_clearance, candidate_x, candidate_v, dt,
-                          scheme, wet_law, max_iterations, elastic_iterations, last_resort, max_push_speed,
-                          slop_fraction, rest_speed, use_domain, domain_lo, domain_hi, contact_only, store_state)
+        resolve_candidate(particles, colliders, groups, kinematic, i, clearances, reuse_clearance, candidate_x,
+                          candidate_v, dt, scheme, wet_law, max_iterations, elastic_iterations, last_resort,
+                          max_push_speed, slop_fraction, rest_speed, use_domain, domain_lo, domain_hi, contact_only,
+                          store_state)
 
 
 @ti.func
-def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(), i, clearances: ti.template(),
-                      reuse_clearance, candidate_x: ti.template(), candidate_v: ti.template(), dt,
+def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i,
+                      clearances: ti.template(), reuse_clearance, candidate_x: ti.template(),
+                      candidate_v: ti.template(), dt,
                       scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations, last_resort,
                       max_push_speed, slop_fraction, rest_speed, use_domain: ti.template(), domain_lo: vec3,
                       domain_hi: vec3, contact_only: ti.template(), store_state: ti.template()):
@@ -354,14 +390,14 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
         else:
             if ti.static(contact_only):
                 r = p.radius[i]
-                x1, v1, clearance = resolve_passes(p, c, groups, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
+                x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
                                                    slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
-                x_kept = keep_out(c, groups, x0, x1, r)
+                x_kept = keep_out(c, groups, kinematic, x0, x1, r)
                 if any(x_kept != x1):
                     clearance = -1.0
                 x1 = x_kept
             else:
-                x1, v1, clearance = resolve_particle(p, c, groups, i, x0, v0, x1, v1, dt, scheme, wet_law,
+                x1, v1, clearance = resolve_particle(p, c, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
                                                      max_iterations, elastic_iterations, last_resort, max_push_speed,
                                                      slop_fraction, rest_speed)
         if ti.static(store_state):
@@ -455,7 +491,8 @@ class ImpulseSolver(Solver):
         if store_state:
             store.mark_moved()
         impulse_resolve_candidates(particles=store.args, colliders=table.args, groups=table.groups,
-                                   clearances=store.clearance, reuse_clearance=int(reuse), dt=dt,
+                                   kinematic=table.has_kinematic, clearances=store.clearance,
+                                   reuse_clearance=int(reuse), dt=dt,
                                    **self._law(world, dt), contact_only=contact_only, store_state=store_state,
                                    candidate_x=candidate_x, candidate_v=candidate_v)
         if store_state:
@@ -467,7 +504,8 @@ class ImpulseSolver(Solver):
         store, table = world.particles, world.colliders
         reuse = store.clearances_hold(table)
         store.mark_moved()
-        impulse_substep(particles=store.args, colliders=table.args, groups=table.groups, clearances=store.clearance,
+        impulse_substep(particles=store.args, colliders=table.args, groups=table.groups,
+                        kinematic=table.has_kinematic, clearances=store.clearance,
                         reuse_clearance=int(reuse), n_substeps=substeps, gravity=vec3(*world.gravity), dt=dt,
                         **self._law(world, dt))
         store.clearances_written(table)

@@ -22,12 +22,13 @@ feature gets the Unused pack in that feature's place.
 """
 
 import functools
+import math
 import weakref
 
 import numpy as np
 import taichi as ti
 
-from .. import params, runtime, validate
+from .. import notices, params, runtime, validate
 from ..geometry.colliders import Collider
 from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SPHERE_INERTIA, SYMPLECTIC_EULER, apply_repulsion,
                                 friction_force, spin_friction, spring_damper, spring_damper_implicit)
@@ -53,6 +54,21 @@ TABLE_WIDTH = 9
 #: The scene warns when dt exceeds this multiple of the recommended dt (always inside the
 #: explicit stability limit, which lies at least 2.7 recommended dt away: see params).
 WARN_FACTOR = 2.0
+
+
+def impact_depth_factor(damping_ratio: float) -> float:
+    """The deepest a spring-damper contact lets a particle sink when struck at speed V, in
+    units of V / w (w = sqrt(k / m)): the maximum of x(t) for m x'' = -k x - D x', x(0) = 0,
+    x'(0) = V. Undamped 1, critically damped 1/e, less the more damping."""
+    zeta = damping_ratio
+    root = math.sqrt(abs(1.0 - zeta * zeta))
+    if root < 1e-6:
+        return math.exp(-1.0)  # critically damped: x = V t exp(-w t), deepest at w t = 1
+    if zeta < 1.0:
+        return math.exp(-zeta / root * math.atan2(root, zeta))  # x = V / w_d exp(-zeta w t) sin(w_d t)
+    s1, s2 = -zeta + root, -zeta - root  # overdamped: the two decay rates, in units of w
+    peak = math.log(s2 / s1) / (s1 - s2)
+    return (math.exp(s1 * peak) - math.exp(s2 * peak)) / (s1 - s2)
 
 
 @ti.func
@@ -90,13 +106,13 @@ def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template
         if reach > field_range and bound < Collider.UNBOUNDED:
             clearance = ti.min(clearance, reach - field_range)
             continue
-        phi, n = collider_sdf(c, groups, ci, x0, False)
+        phi, n = collider_sdf(c, groups, ci, x0, False, r + field_range)
         gap = phi - r
         clearance = ti.min(clearance, gap - field_range)
         field_kind = ti.cast(row[FIELD_KIND], ti.i32)
         if gap < 0.0 or (field_kind != FIELD_NONE and gap < field_range):
             # query: the surface velocity at the closest surface point (relative velocity)
-            vs = surface_velocity(c, ci, carried(c, ci, x0 - phi * n, 0.0))
+            vs = surface_velocity(c, ci, carried(c, ci, x0 - phi * n))
             if gap < 0.0:
                 # respond: docs/physics.md 4, the spring-damper at the point of entry, depth = r - phi
                 vn = (v0 - vs).dot(n)
@@ -254,6 +270,8 @@ class PenaltySolver(Solver):
         self.integrator = integrator
         self.spin = bool(spin)
         self._tables = weakref.WeakKeyDictionary()  # scene -> (key, per-collider ndarray)
+        self._warned_overrun = set()  # ids of the collider entries warned about (_check_overrun)
+        self._heaviest = None  # ((id of the particle store, its count), its heaviest mass in kg)
 
     def __repr__(self):
         k = f"stiffness={self.stiffness:g}" if self.stiffness is not None else f"hertz={self.hertz:g}"
@@ -351,12 +369,57 @@ class PenaltySolver(Solver):
         return dict(stiffness=stiffness, stiffness_per_mass=int(per_mass), damping=damping,
                     damping_is_ratio=int(is_ratio))
 
+    def _check_overrun(self, world, dt: float):
+        """Warn, once per collider, when a kinematic collider's surface is faster than its
+        contacts can stop a particle within the particle's radius.
+
+        Penalty forces act only on a particle that is already inside: struck at speed V, the
+        softest contact (the heaviest particle's, with a stiffness in N/m) lets it sink up to
+        V / w times impact_depth_factor(damping ratio). Deeper than the smallest radius, the
+        particle's centre passes the surface, and it is pushed on through a thin collider or out
+        of a thick one's far side; a surface that moves more than a radius in one substep can
+        also step past a particle between two force evaluations. Continuous detection, which
+        would catch both, belongs to tc.ImpulseSolver."""
+        particles = world.particles
+        if particles.count == 0:
+            return
+        if self._heaviest is None or self._heaviest[0] != (id(particles), particles.count):
+            self._heaviest = ((id(particles), particles.count), float(np.max(particles.read("mass"))))
+        contact = self.contact_params(self._heaviest[1])
+        omega = math.sqrt(contact.stiffness / contact.mass)
+        factor = impact_depth_factor(contact.damping_ratio)
+        radius = particles.min_radius
+        for index, entry in enumerate(world.colliders.entries):
+            if not entry.is_kinematic or id(entry) in self._warned_overrun:
+                continue
+            if entry.shape.params[Collider.BOUND_SLOT] >= Collider.UNBOUNDED:
+                # a plane: only its motion along the normal (the rotation's second column) strikes
+                speed = abs(float(np.dot(entry.velocity, entry.rotation[:, 1])))
+            else:
+                speed = (float(np.linalg.norm(entry.velocity))
+                         + float(np.linalg.norm(entry.angular_velocity)) * entry.shape.params[Collider.BOUND_SLOT])
+            depth = speed / omega * factor
+            if depth > radius or speed * dt > radius:
+                self._warned_overrun.add(id(entry))
+                hertz = speed * factor / (2.0 * math.pi * radius)
+                notices.warn(
+                    f"PenaltySolver: collider {index} ({type(entry.shape).__name__}) moves its surface at up to "
+                    f"{speed:.3g} m/s. A penalty contact ({contact.regime}, natural period "
+                    f"{contact.natural_period:.3g} s for m = {contact.mass:.3g} kg) lets a particle struck that fast "
+                    f"sink up to {depth:.3g} m, and the surface moves {speed * dt:.3g} m in a substep of dt = "
+                    f"{dt:.3g} s: beyond the smallest radius, {radius:.3g} m, particles pass through a thin "
+                    f"collider or leave a thick one by its far side. Use a stiffer contact (natural frequency >= "
+                    f"{hertz:.3g} Hz, with dt to match) or tc.ImpulseSolver, whose continuous detection follows a "
+                    "moving collider", RuntimeWarning)
+
     def advance(self, world, dt: float, substeps: int = 1, loads=None):
         """Advance every active particle by `substeps` substeps of dt against the colliders,
         which must keep their current poses for the whole call. `loads`: optional per-particle
         loads held for the call (other particles'): Forces, or ForcesAndTorques when the
         particles spin."""
         particles = world.particles
+        if world.colliders.has_kinematic:
+            self._check_overrun(world, dt)
         if self.spin:
             particles.enable_spin()
         use_domain, lo, hi = world.domain_bounds()

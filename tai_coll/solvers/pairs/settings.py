@@ -4,12 +4,11 @@ small validated object apart from the pair solver's work arrays (collisions.py).
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ... import validate
+from ... import notices, validate
 from ...materials import Material
 from .sleeping import SLEEP_DRIFT, SLEEP_TIME, WAKE_SPEED
 
@@ -147,8 +146,8 @@ class PairSettings:
             if (new == "contact_margin" and self.contact_margin is not None) or (new == "verlet_skin"
                                                                                  and self.verlet_skin):
                 raise TypeError(f"give {new}= (m) or its old form {old}= (radii), not both")
-            warnings.warn(f"enable_particle_collisions: {old}= (a fraction of the largest radius) is now {new}= in "
-                          f"metres; the old name will be removed in tai_coll 0.3", DeprecationWarning, stacklevel=4)
+            notices.warn(f"enable_particle_collisions: {old}= (a fraction of the largest radius) is now {new}= in "
+                          f"metres; the old name will be removed in tai_coll 0.3", DeprecationWarning)
             put(old, validate.real(old, value, low=0.0))
 
     def margin_length(self, largest_radius: float) -> float:

@@ -54,7 +54,7 @@ def _support_from_colliders(particles: ParticleArgs, colliders: ColliderArgs, gr
         if particles.flags[i] == ACTIVE:
             touch = particles.radius[i] * (1.0 + SUPPORT_TOUCH)
             for ci in range(colliders.count):
-                phi, n = collider_sdf(colliders, groups, ci, x1[i], True)
+                phi, n = collider_sdf(colliders, groups, ci, x1[i], True, touch)
                 if phi < touch and n.dot(up) > SUPPORT_COS:
                     level = 0
         levels[i] = level
