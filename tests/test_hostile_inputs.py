@@ -201,6 +201,15 @@ def test_a_scene_of_an_old_runtime_refuses_every_public_call(scene, name, no_ker
     assert scene.num_particles == 2 and scene.time == 0.0 and "2 particles" in repr(scene)
 
 
+def test_particle_collisions_of_an_old_runtime_refuse_their_calls_and_counters(scene, no_kernels):
+    pairs = scene.enable_particle_collisions()
+    pairs._runtime = dataclasses.replace(pairs._runtime, generation=pairs._runtime.generation - 1)
+    for call in (lambda: pairs.neighbour_overflow, lambda: pairs.history_overflow, lambda: pairs.arrays()):
+        with pytest.raises(RuntimeError, match="this ParticleCollisions was built before tai_coll.init"):
+            call()
+    assert "ParticleCollisions(" in repr(pairs)  # host-side state still prints
+
+
 RESTART = textwrap.dedent("""
     import json
     import numpy as np

@@ -27,7 +27,8 @@ the default) or all at once (jacobi.py).
 
 A substep with DEM pairs (the PenaltySolver's, `dem_substep`): the pair forces at the
 substep's start (dem.py), from the grid sorted this substep or from Verlet lists, then the
-solver's substep against the colliders with those forces as loads.
+solver's substep against the colliders with those forces as loads; while overlap particles
+were placed with is left, a separation by positions after it (placement.separate).
 
 Both reorder the particle store by cell now and then (`reorder`): neighbours then lie near
 each other in memory. The settings are a PairSettings (settings.py); this object holds the
@@ -46,7 +47,7 @@ from ...types import unused
 from ..penalty import Forces, ForcesAndTorques
 from . import dem, gauss_seidel, jacobi, shock
 from .overlap import overlap
-from .placement import SHRINK, cap_push_velocity, grant_allowances, shrink_allowances
+from .placement import DEM_CEILING, DEM_SHRINK, SHRINK, cap_push_velocity, grant_allowances, separate, shrink_allowances
 from .predict import predict_kernel
 from .sleeping import update_rest
 from .settings import PairSettings
@@ -59,8 +60,11 @@ REORDER_INTERVAL = 8
 BY_RADIUS_RATIO = 2.0
 
 
+@runtime.bound_to_runtime
 class ParticleCollisions:
     """Particle-particle collisions of a scene (Scene.enable_particle_collisions returns it).
+    Its arrays belong to the Taichi runtime it was built in: after tc.init restarts Taichi,
+    its methods and counters raise a clear RuntimeError (runtime.bound_to_runtime).
 
     settings: the PairSettings (its fields also read through this object: .method,
         .iterations, ...).
@@ -68,6 +72,7 @@ class ParticleCollisions:
     """
 
     def __init__(self, settings: PairSettings):
+        self._runtime = runtime.ensure_init()
         self.settings = settings
         self.grid = HashGrid()
         self.lists = VerletLists()
@@ -79,6 +84,7 @@ class ParticleCollisions:
         self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
         self._law = None  # (key, the DEM law's argument pack)
         self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
+        self._allowance_ceiling = 0.0  # DEM pairs: the most allowance any particle may have (m)
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._v_pushed = None  # the velocities entering the projection passes while allowances are left
@@ -121,6 +127,7 @@ class ParticleCollisions:
         read from the device); more than NEIGHBOUR_CAPACITY particles within a particle's reach
         means particles far smaller than the largest, or a pile crushed far beyond its radii.
         (The DEM kernel's lists miss none: while they are full it queries the grid instead.)"""
+        runtime.check_generation(self._runtime.generation, "this ParticleCollisions")
         return self.grid.dropped() - self._dem_dropped
 
     @property
@@ -128,6 +135,7 @@ class ParticleCollisions:
         """Contacts a particle touched beyond the HISTORY whose tangential springs it keeps, summed
         over the substeps so far (a read from the device): these slid by the regularised
         friction instead."""
+        runtime.check_generation(self._runtime.generation, "this ParticleCollisions")
         return self.springs.overflowed
 
     @property
@@ -348,15 +356,17 @@ class ParticleCollisions:
     def _place(self, particles) -> bool:
         """Give particles placed since the last substep (added, or moved by set_positions) their
         overlap allowances: overlap they were placed with is an error of position, removed at
-        max_push_speed by positions only (impulse pairs) or let into the spring law at that
-        speed (DEM pairs), not a collision (docs/physics.md 5). Returns whether any allowance
-        is left (the passes then take the placed particles' path)."""
+        max_push_speed by positions only (impulse pairs: the projection passes; DEM pairs: the
+        separation after the substep, the spring acting beyond the allowances), not a collision
+        (docs/physics.md 5.2.1). Returns whether any allowance is left (the passes then take the
+        placed particles' path)."""
         if particles.placed_from is not None and particles.count and math.isfinite(self.settings.max_push_speed):
             self._sort(particles, particles.x, 2.0 * particles.max_radius)
             self.lists.invalidate()  # the sort replaced the buckets the lists came from
             largest = grant_allowances(self.grid, particles.count, particles.placed_from, particles.allowance,
                                        self._largest)
             self._allowance_left = max(self._allowance_left, largest)
+            self._allowance_ceiling = max(self._allowance_ceiling, largest)
             particles.placed_from = None
         return self.placing
 
@@ -366,8 +376,8 @@ class ParticleCollisions:
         return self._allowance_left > 0.0
 
     def _relax(self, particles, dt: float):
-        """At the end of a substep: every allowance shrinks by SHRINK * max_push_speed * dt (a
-        pair's, the sum of its two, by twice that)."""
+        """Impulse pairs, at the end of a substep: every allowance shrinks by SHRINK *
+        max_push_speed * dt (a pair's, the sum of its two, by twice that)."""
         if self._allowance_left > 0.0:
             amount = SHRINK * self.settings.max_push_speed * dt
             self._allowance_left = shrink_allowances(particles.count, amount, particles.allowance, self._largest)
@@ -375,7 +385,8 @@ class ParticleCollisions:
     # ---------------------------------------------------------------- DEM pairs
     def dem_substep(self, world, solver, dt: float):
         """One substep with DEM pairs: their forces at the substep's start, then the solver's
-        substep (a PenaltySolver) against the colliders with those forces as loads."""
+        substep (a PenaltySolver) against the colliders with those forces as loads, then while
+        allowances are left the separation of placed overlap (`_separate`)."""
         particles = world.particles
         self._ensure(particles.capacity)
         settings = self.settings
@@ -401,7 +412,23 @@ class ParticleCollisions:
         if with_springs:  # this substep's springs are the current ones
             self.springs.swap()
         solver.advance(world, dt, 1, loads=loads)
-        self._relax(particles, dt)
+        if self.placing:
+            self._separate(world, dt, listed)
+
+    def _separate(self, world, dt: float, listed: bool):
+        """DEM pairs, at the end of a substep while allowances are left (placement.separate):
+        overlap particles were placed with goes by positions only, at most max_push_speed * dt
+        a substep, and the allowances follow the overlap left; their ceiling comes down by
+        DEM_CEILING of that a substep (docs/physics.md 5.2.1). The separation's candidates are
+        the force kernel's (listed: the lists, else the grid sorted at the substep's start); its
+        moves go to the loads' array (delta), free once the solver's substep has applied them,
+        its changes of velocity to v1 (the impulse passes')."""
+        push_distance = self.settings.max_push_speed * dt
+        self._allowance_ceiling = max(self._allowance_ceiling - DEM_CEILING * push_distance, 0.0)
+        candidates = self.grid.lists if listed else self.grid.args
+        self._allowance_left = separate(world, candidates, self.grid.inv_cell, listed, push_distance,
+                                        DEM_SHRINK * push_distance, self._allowance_ceiling, self.contacts,
+                                        self.delta, self.v1, self._largest)
 
     def _loads(self, spinning: bool):
         """The pair forces (and torques, for spinning particles) as one argument pack."""

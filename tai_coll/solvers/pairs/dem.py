@@ -93,7 +93,8 @@ def _batch_forces(i, own: vec4, batch: ti.template(), count, kept, carried, part
         vn = v_rel.dot(nrm)
         overlap = own.w + other.w - dist
         # the spring presses only overlap beyond the pair's allowances: overlap a particle was
-        # placed with is let into the law at a capped speed, not released at once (docs/physics.md 5)
+        # placed with goes by positions (placement.separate), its energy never stored in the
+        # spring (docs/physics.md 5.2.1)
         depth = overlap - (particles.allowance[i] + particles.allowance[j])
         fn = ti.select(depth > 0.0, spring_damper(depth, vn, stiff, damp), 0.0)
         total += fn * nrm

@@ -72,9 +72,10 @@ class PairSettings:
         overlapping, or moved onto each other by set_positions) is removed. It is an error of
         position, not a collision (docs/physics.md 5): impulse pairs remove it by moving
         positions only, at most max_push_speed * dt a substep, giving no particle any velocity;
-        DEM pairs let it into the spring law at that speed. Default 0.5 m/s, for particles of
-        millimetres to centimetres; math.inf: placed overlap is resolved like any other (the
-        old behaviour, for tests of the laws on chosen overlaps).
+        DEM pairs likewise, after each substep, their springs pressing only the overlap beyond
+        it (docs/physics.md 5.2.1). Default 0.5 m/s, for particles of millimetres to
+        centimetres; math.inf: placed overlap is resolved like any other (the old behaviour,
+        for tests of the laws on chosen overlaps).
     sleep_time: s; a particle that stays within sleep_drift of its radius of where it came to
         rest for this long, held by its contacts, falls asleep: it stops and does not move
         until something wakes it (docs/physics.md 5.3.1), so a pile comes to rest instead of
