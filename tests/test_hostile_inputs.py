@@ -344,6 +344,18 @@ def test_an_implicit_grid_is_capped_as_meshsdf_is(options, name, no_kernels):
     assert tc.Implicit(sphere, bounds=((-1, -1, -1), (1, 1, 1)), resolution=16).values.shape == (16,) * 3
 
 
+@pytest.mark.parametrize("options, name", [
+    (dict(resolution=100000), "resolution"),
+    (dict(voxel_size=1e-30), "voxel_size"),  # wrapped around an integer count to a 2 x 2 x 2 grid
+    (dict(voxel_size=1.0 / 300), "voxel_size"),
+])
+def test_a_mesh_grid_beyond_the_node_cap_is_refused_naming_the_argument(options, name, no_kernels):
+    import trimesh
+
+    with pytest.raises(ValueError, match=rf"^{name}: the grid would have .* more than 16,777,216"):
+        tc.MeshSDF(trimesh.creation.box(extents=(1.0, 1.0, 1.0)), **options)
+
+
 # ---------------------------------------------------------------------------- mesh files
 
 MESH_LOADERS = {"MeshSDF": tc.MeshSDF, "TriangleMesh": tc.TriangleMesh, "bake_mesh": tc.bake_mesh}

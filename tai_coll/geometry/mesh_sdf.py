@@ -87,8 +87,10 @@ def grid_layout(extent, *, resolution, voxel_size, padding):
     else:
         h = (longest + 2 * padding) / (resolution - 1)
     pad = DEFAULT_PADDING_CELLS * h if padding is None else padding
-    dims = np.maximum(np.ceil((extent + 2 * pad) / h - 1e-9).astype(np.int64) + 1, 2)
-    return h, dims, pad
+    # counted in floats first (grid_sdf.node_counts): a tiny voxel_size would overflow an integer
+    # count, wrap around and bake a 2 x 2 x 2 grid; beyond MAX_NODES, a ValueError naming the argument
+    dims = grid_sdf.node_counts(extent + 2 * pad, h, name="voxel_size" if voxel_size is not None else "resolution")
+    return h, dims.astype(np.int64), pad
 
 
 class MeshSDF(Collider):
@@ -139,9 +141,6 @@ class MeshSDF(Collider):
         self.mesh_center = 0.5 * (lo + hi)
         local = vertices - self.mesh_center
         h, dims, pad = grid_layout(hi - lo, resolution=resolution, voxel_size=voxel_size, padding=padding)
-        if np.prod(dims) > MAX_NODES:
-            raise ValueError(f"the grid would have {int(np.prod(dims)):,} nodes ({dims.tolist()}), more than "
-                             f"{MAX_NODES:,}; use a lower resolution or a larger voxel_size")
         origin = -0.5 * h * (dims - 1)
         self.sign = sign
         mode = "none" if self.thickness > 0 else self._sign_mode(sign, faces)

@@ -280,9 +280,9 @@ class Scene:
                 f"particles overlap by up to {100 * deepest:.0f} % of the smaller radius at t = {self.time:.6g} s: "
                 "the DEM contacts are too soft for the load they carry (a spring holds a load at overlap = load / "
                 "k; with hertz=, each contact's stiffness follows the masses of its particles, so a light particle "
-                "cannot hold up a heavy one). Give PenaltySolver(stiffness=...) in N/m for the heaviest load, with "
-                "substeps='auto', or use the impulse solver, whose shock propagation keeps piles of any mass "
-                "ratio apart", RuntimeWarning)
+                "cannot hold up a heavy one), or more particles are crowded together than the space holds. Give "
+                "PenaltySolver(stiffness=...) in N/m for the heaviest load, with substeps='auto', or use the impulse "
+                "solver, whose shock propagation keeps piles of any mass ratio apart", RuntimeWarning)
 
     def _check_divergence(self):
         """dt is beyond the stability limit (see _watch_stability): stop a run whose particles
