@@ -111,13 +111,58 @@ def test_lists_of_a_large_particle_among_small_ones_hold_each_pair_once(margin_r
     assert grid.dropped() == 0
 
 
-def test_dem_contacts_too_soft_for_their_load_are_warned_about():
+def _dem_stack(masses, radius=0.01):
+    # hertz=: each contact as stiff as its (reduced) mass, the light particle's as soft as its own
     scene = tc.Scene(solver=tc.PenaltySolver(hertz=200), dt=5e-5, substeps=100)
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.0, friction=0.5))
+    heights = radius + 2 * radius * np.arange(len(masses))
+    scene.add_particles(positions=np.c_[np.zeros(len(masses)), heights, np.zeros(len(masses))], radius=radius,
+                        mass=np.asarray(masses, dtype=float))
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.0, friction=0.5))
+    return scene
+
+
+@pytest.mark.parametrize("masses", [(1e-6, 1e3), (1e-3, 1e-3, 1e3), (1.0, 1e-6, 1e-3)])
+def test_dem_a_heavy_particle_rests_on_light_ones_apart_by_the_sum_of_radii(masses):
+    # A spring on a 1e-6 kg particle cannot hold 1e3 kg (it would need k >= 2e7 N/m, stable only
+    # below dt = 2e-7 s): without the overlap limit the heavy one sank to 10 mm from the light
+    # one, which sat with its centre on the floor. The limit (shock.DEM_OVERLAP_LIMIT, 2.5 % of
+    # the radius) keeps both within 5 %.
+    scene = _dem_stack(masses)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing crushed, nothing to warn about
+        scene.step(15)  # 0.075 s
+    y = scene.positions()[:, 1]
+    assert np.all(np.abs(np.diff(y) - 0.02) <= 0.05 * 0.02), np.diff(y)
+    assert y[0] == pytest.approx(0.01, rel=0.05)  # the bottom one is on the floor, not in it
+    assert np.abs(scene.velocities()).max() < 1e-2
+
+
+def test_dem_momentum_is_kept_between_heavy_and_light_particles_in_flight():
+    # no support: the overlap limit splits by inverse mass, as the spring does
+    masses = np.array([1e3, 1e-3])
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=200), dt=5e-5, substeps=100)
+    scene.add_particles(positions=[[0.0, 1.0, 0.0], [0.025, 1.0, 0.0]], velocities=[[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]],
+                        radius=0.01, mass=masses)
+    scene.enable_particle_collisions(material=tc.Material(restitution=0.5, friction=0.0))
+    scene.step(2)  # they meet within 2.5 ms, the deepest 2 m/s / (2 pi 200 Hz) = 1.6 mm: beyond the limit
+    v = scene.velocities()
+    momentum = (masses[:, None] * v).sum(0)
+    expected = masses.sum() * (np.array([1.0, 0.0, 0.0]) * (1e3 - 1e-3) / masses.sum()
+                               + np.asarray(scene.gravity) * scene.time)
+    assert momentum == pytest.approx(expected, rel=1e-5, abs=1e-6)
+    assert v[1, 0] > v[0, 0]  # the light one bounced off the heavy one
+
+
+def test_dem_contacts_too_soft_for_their_load_are_warned_about():
+    # equal masses (no overlap limit): a column of 10 on hertz=20 contacts, the lowest
+    # holding 9 weights at 9 g / (2 pi 20 Hz)^2 = 5.6 mm, more than a quarter of the radius
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=20), substeps="auto")
     scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.0))
-    scene.add_particles(positions=[[0, 0.01, 0], [0, 0.03, 0]], radius=0.01, mass=np.array([1e-6, 1e3]))
+    scene.add_particles(positions=np.c_[np.zeros(10), 0.01 + 0.02 * np.arange(10), np.zeros(10)], radius=0.01)
     scene.enable_particle_collisions()
     with pytest.warns(RuntimeWarning, match="too soft for the load"):
-        scene.step(20)
+        scene.step(30)
 
 
 @pytest.mark.parametrize("count", [40, pytest.param(1000, marks=pytest.mark.slow)])

@@ -16,7 +16,6 @@ from .. import notices, runtime, validate
 from . import bake, grid_sdf, kinds
 from . import cache as sdf_cache
 from .colliders import Collider
-from .grid_sdf import MAX_NODES
 
 SIGNS = ("auto", "winding", "parity", "none")
 DEFAULT_RESOLUTION = 128

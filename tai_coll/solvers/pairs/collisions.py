@@ -414,6 +414,32 @@ class ParticleCollisions:
         solver.advance(world, dt, 1, loads=loads)
         if self.placing:
             self._separate(world, dt, listed)
+        self._limit_dem_overlap(world, dt, listed)
+
+    def _limit_dem_overlap(self, world, dt: float, listed: bool):
+        """DEM pairs where masses differ by more than SHOCK_MASS_RATIO under gravity (shock.py):
+        the support levels at the new positions, then Jacobi passes (shock.limit_passes) that
+        remove overlap beyond DEM_OVERLAP_LIMIT of each pair's smaller radius, the lower level
+        immovable, until none is left or SHOCK_PASSES (docs/physics.md 5.4). The pairs: the
+        force kernel's lists, or (it queried the grid) full lists of the pairs touching now."""
+        particles = world.particles
+        lightest, heaviest = particles.mass_range
+        if heaviest <= shock.SHOCK_MASS_RATIO * lightest or not any(world.gravity) or not particles.count:
+            return
+        if self.levels is None:
+            self.levels = ti.ndarray(ti.i32, shape=self.capacity)
+        if not listed:
+            dropped = self.grid.dropped()
+            self.grid.build(particles.x, particles.radius, particles.flags, particles.count,
+                            2.0 * particles.max_radius, 0.0)
+            self._dem_dropped += self.grid.dropped() - dropped  # (its overflow is this pass's, not the forces')
+            self.lists.invalidate()  # the Verlet lists, if any, were in the arrays just rebuilt
+        shock.support_levels(world, self.grid.lists, particles.x, self.levels, self.changed)
+        for _ in range(shock.SHOCK_PASSES // shock.PASSES_PER_LAUNCH):
+            shock.limit_passes(particles.args, self.grid.lists, self.levels, shock.DEM_OVERLAP_LIMIT, dt,
+                               self.contacts, self.delta, self.changed)
+            if not self._changed():
+                break
 
     def _separate(self, world, dt: float, listed: bool):
         """DEM pairs, at the end of a substep while allowances are left (placement.separate):

@@ -17,10 +17,18 @@ as before, so momentum is kept wherever no support is involved.
 
 It runs only where masses differ by more than SHOCK_MASS_RATIO (piles of one mass settle
 without it: docs/design-notes.md) and gravity is not zero (no up, no support).
+
+DEM pairs (docs/physics.md 5.4) carry loads by their springs, and a spring on a light
+particle cannot hold a heavy one (it would need a stiffness no explicit step of the light
+particle's mass keeps stable). Under the same condition, after each DEM substep, `limit_passes`
+removes the overlap of every pair beyond DEM_OVERLAP_LIMIT of the smaller radius, by
+positions with the velocity following (inelastic, as a projection), the lower support level
+of the pair immovable: the spring keeps its law up to the limit, and nothing sinks through.
 """
 
 import taichi as ti
 
+from ...response.laws import pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, vec3
 from ..detection import collider_sdf
 
@@ -40,6 +48,17 @@ MAX_LEVEL_PASSES = 64
 # Shock projection passes at most (each pair resolved with its lower particle fixed; a pass
 # that finds no overlap ends them).
 SHOCK_PASSES = 16
+#: DEM pairs with masses that differ by more than SHOCK_MASS_RATIO under gravity: the most a
+#: pair may overlap, as a fraction of its smaller radius; beyond it, limit_passes removes the
+#: rest. (A heavy particle resting on a light one stays within 2.5 % of the light one's radius
+#: of touching it, and pushes it about as deep into a floor.)
+DEM_OVERLAP_LIMIT = 0.025
+#: limit_passes: the passes end once no pair overlaps by more than (1 + LIMIT_SLACK) times the
+#: limit (each pass still removes every excess); PASSES_PER_LAUNCH of them run in one launch
+#: (on the CPU a launch with the store's arrays costs more than a pass over a few thousand
+#: particles).
+LIMIT_SLACK = 0.1
+PASSES_PER_LAUNCH = 4
 
 
 @ti.kernel
@@ -66,8 +85,9 @@ def _propagate(particles: ParticleArgs, lists: ListArgs, x1: ARRAY, up: vec3,
                changed: ARRAY,
                # in-out
                levels: ARRAY):
-    """One pass over the pairs of the forward lists: a particle resting on a neighbour of
-    level k gets level k + 1 if that is lower than its own. changed[0]: whether any did."""
+    """One pass over the pairs of the lists (forward or full): a particle resting on a
+    neighbour of level k gets level k + 1 if that is lower than its own. changed[0]: whether
+    any did."""
     changed[0] = 0
     for i in range(particles.count):
         if particles.flags[i] == ACTIVE:
@@ -113,3 +133,58 @@ def support_levels(world, lists, x1, levels, changed) -> int:
         if not changed[0]:
             return passes
     return MAX_LEVEL_PASSES
+
+
+@ti.kernel
+def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit: float, dt: float,
+                 # work
+                 counts: ARRAY, dx: ARRAY,
+                 # outputs
+                 changed: ARRAY):
+    """PASSES_PER_LAUNCH Jacobi passes over full neighbour lists (DEM pairs): every pair
+    overlapping by more than `limit` of its smaller radius is moved apart by the excess, the
+    lower support level immovable (fixed_shares), equal levels split by inverse mass, each
+    pair's share divided by the larger count of such pairs of its two particles
+    (jacobi.pair_share: a crowd converges without over-correcting); the velocity follows the
+    position (dx / dt). A frozen neighbour is immovable. changed[0]: whether the last pass
+    found a pair beyond (1 + LIMIT_SLACK) times the limit."""
+    for _ in ti.static(range(PASSES_PER_LAUNCH)):
+        changed[0] = 0
+        for i in range(particles.count):
+            beyond = 0
+            far = 0
+            if particles.flags[i] == ACTIVE:
+                ri = particles.radius[i]
+                for k in range(lists.neighbour_count[i]):
+                    j = lists.neighbours[i, k]
+                    rj = particles.radius[j]
+                    overlap = ri + rj - (particles.x[i] - particles.x[j]).norm()
+                    allowed = limit * ti.min(ri, rj)
+                    beyond += ti.cast(overlap > allowed, ti.i32)
+                    far += ti.cast(overlap > (1.0 + LIMIT_SLACK) * allowed, ti.i32)
+            counts[i] = beyond
+            if far > 0 and changed[0] == 0:
+                changed[0] = 1
+        for i in range(particles.count):
+            move = vec3(0.0, 0.0, 0.0)
+            if particles.flags[i] == ACTIVE and counts[i] > 0:
+                ri = particles.radius[i]
+                mi = particles.mass[i]
+                for k in range(lists.neighbour_count[i]):
+                    j = lists.neighbours[i, k]
+                    rj = particles.radius[j]
+                    nrm, dist = pair_normal(particles.x[i], particles.x[j], i, j)
+                    excess = ri + rj - dist - limit * ti.min(ri, rj)
+                    if excess > 0.0:
+                        mj = particles.mass[j]
+                        wi = mj / (mi + mj)
+                        wj = mi / (mi + mj)
+                        if particles.flags[j] != ACTIVE:
+                            wi, wj = 1.0, 0.0
+                        wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
+                        move += (wi * excess / ti.max(counts[i], counts[j], 1)) * nrm
+            dx[i] = move
+        for i in range(particles.count):
+            if particles.flags[i] == ACTIVE:
+                particles.x[i] += dx[i]
+                particles.v[i] += dx[i] / dt
