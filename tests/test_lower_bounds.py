@@ -14,6 +14,7 @@ The session runs in f64 (tests/conftest.py).
 
 import numpy as np
 import pytest
+import taichi as ti
 import trimesh
 
 import tai_coll as tc
@@ -144,6 +145,26 @@ def test_large_ball_on_a_sampled_function_rests_on_it_beyond_its_bounds():
     cube = tc.Implicit(box_distance, bounds=((-0.6, -0.6, -0.6), (0.6, 0.6, 0.6)), resolution=16)
     x = settle(cube, (0.1, 1.5, -0.1), 0.3)
     assert x[1] == pytest.approx(0.8, abs=REST_TOL)
+
+
+@ti.func
+def squared_ball(p: ti.math.vec3):
+    """|p|^2 - 1: zero on the unit sphere, |grad| = 2 there, not a distance."""
+    return p.dot(p) - 1.0
+
+
+@pytest.mark.parametrize("radius", [0.05, 0.2])
+def test_ball_on_a_taichi_function_with_a_loose_bound_rests_on_its_surface(radius):
+    """lipschitz=4 bounds |grad f| over |p| <= 2, twice its value at the surface: f / 4 is half
+    the distance there, and a ball used to rest where that bound reached its radius
+    (|p| = sqrt(1 + 4 r): 1.095 for r = 0.05, 1.342 for 0.2). Within reach, f / |grad f|."""
+    ball = tc.Implicit(squared_ball, lipschitz=4.0, bounds=((-2, -2, -2), (2, 2, 2)))
+    x = settle(ball, (0.0, 1.6, 0.0), radius, frames=60)
+    # f / |grad f| = (|p|^2 - 1) / (2 |p|) equals r at |p| = r + sqrt(1 + r^2): off the true
+    # 1 + r by 1e-3 (r = 0.05) and 2e-2 (0.2), the curvature's second-order term
+    assert np.linalg.norm(x) == pytest.approx(radius + np.sqrt(1.0 + radius ** 2), abs=REST_TOL)
+    hit, t, _ = ball.crossing(np.array([[0.0, 1.9, 0.0]]), np.array([[0.0, -1.9, 0.0]]), radius=radius)
+    assert hit[0] and 1.9 - 3.8 * t[0] == pytest.approx(radius + np.sqrt(1.0 + radius ** 2), abs=1e-4)
 
 
 # ---------------------------------------------------------------------------- queries

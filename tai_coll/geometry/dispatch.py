@@ -50,7 +50,7 @@ def local_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, p: vec3
         if kind == kinds.SDF_GRID:
             phi, n = grid_sdf(g, ci, p, reach)
     if ti.static(groups & kinds.GROUP_IMPLICIT):
-        phi, n = implicit_sdf(g, groups, ci, kind, params, p)  # dispatches over the scene's implicit kinds
+        phi, n = implicit_sdf(g, groups, ci, kind, params, p, reach)  # over the scene's implicit kinds
     return phi, n
 
 
