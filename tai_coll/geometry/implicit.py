@@ -11,7 +11,9 @@ f < 0 inside, f > 0 outside, in the collider's local frame. Two ways to give it:
   analytic gradient.
 phi = f / lipschitz, where `lipschitz` bounds |grad f| (1 for a true signed distance), so
 phi never exceeds the distance to the surface: culling, free-flight clearance and the
-trajectory crossing by conservative advancement (marching.py) stay safe.
+trajectory crossing by conservative advancement (marching.py) stay safe. Near the surface
+(outside it, within the caller's reach) that bound can be a fraction of the distance, and
+phi is f / |grad f| there, the distance to first order (implicit_eval.py; docs/physics.md 1.2).
 """
 
 import numpy as np
@@ -79,7 +81,8 @@ class Implicit(Collider):
     bounds: ((x0, y0, z0), (x1, y1, z1)), local box (m) that contains the surface.
         Required for a numpy function (the grid covers it); for a Taichi function optional:
         it gives the bounding sphere used to skip far particles (without it, unbounded).
-    lipschitz: bound on |grad f| (1 when f is a signed distance): phi = f / lipschitz.
+    lipschitz: bound on |grad f| (1 when f is a signed distance): phi = f / lipschitz, and
+        f / |grad f| near the surface (docs/physics.md 1.2).
     gradient: Taichi functions only, optional `@ti.func (p) -> vec3`, the gradient of f;
         default central differences with step `gradient_step` (m; default 1e-6 x scale
         in f64, 1e-3 x scale in f32, scale the size of `bounds` or 1 m).
