@@ -154,6 +154,23 @@ def test_dem_momentum_is_kept_between_heavy_and_light_particles_in_flight():
     assert v[1, 0] > v[0, 0]  # the light one bounced off the heavy one
 
 
+def test_dem_particles_of_very_different_masses_spawned_on_one_point_gain_no_speed():
+    # placed overlap is the separation's, by positions; the overlap limit must not turn it into
+    # velocity (before it excluded the allowances, 40 of them left at 208 m/s)
+    n, height = 20, 0.05
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=200), substeps="auto")
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.0))
+    masses = np.where(np.arange(n) % 2 == 0, 1e-3, 1.0)
+    scene.add_particles(positions=np.tile([[0.0, height, 0.0]], (n, 1)), radius=0.005, mass=masses)
+    scene.enable_particle_collisions()
+    fastest = 0.0
+    for _ in range(20):
+        scene.step()
+        fastest = max(fastest, float(np.linalg.norm(scene.velocities(), axis=1).max()))
+    assert fastest <= np.sqrt(2 * 9.81 * height) + MAX_PUSH_SPEED
+    assert scene.particle_overlap()["max"] <= 1.1 * 0.025  # at rest in a pile, within the limit
+
+
 def test_dem_contacts_too_soft_for_their_load_are_warned_about():
     # equal masses (no overlap limit): a column of 10 on hertz=20 contacts, the lowest
     # holding 9 weights at 9 g / (2 pi 20 Hz)^2 = 5.6 mm, more than a quarter of the radius

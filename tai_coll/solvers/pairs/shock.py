@@ -146,8 +146,9 @@ def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit:
     lower support level immovable (fixed_shares), equal levels split by inverse mass, each
     pair's share divided by the larger count of such pairs of its two particles
     (jacobi.pair_share: a crowd converges without over-correcting); the velocity follows the
-    position (dx / dt). A frozen neighbour is immovable. changed[0]: whether the last pass
-    found a pair beyond (1 + LIMIT_SLACK) times the limit."""
+    position (dx / dt). Overlap covered by the pair's allowances (placed overlap, placement.py)
+    is not the limit's: it goes by positions only. A frozen neighbour is immovable.
+    changed[0]: whether the last pass found a pair beyond (1 + LIMIT_SLACK) times the limit."""
     for _ in ti.static(range(PASSES_PER_LAUNCH)):
         changed[0] = 0
         for i in range(particles.count):
@@ -159,7 +160,9 @@ def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit:
                     j = lists.neighbours[i, k]
                     rj = particles.radius[j]
                     overlap = ri + rj - (particles.x[i] - particles.x[j]).norm()
-                    allowed = limit * ti.min(ri, rj)
+                    # overlap a particle was placed with is the separation's (placement.py), by
+                    # positions only: beyond the limit and the pair's allowances
+                    allowed = limit * ti.min(ri, rj) + particles.allowance[i] + particles.allowance[j]
                     beyond += ti.cast(overlap > allowed, ti.i32)
                     far += ti.cast(overlap > (1.0 + LIMIT_SLACK) * allowed, ti.i32)
             counts[i] = beyond
@@ -174,7 +177,8 @@ def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit:
                     j = lists.neighbours[i, k]
                     rj = particles.radius[j]
                     nrm, dist = pair_normal(particles.x[i], particles.x[j], i, j)
-                    excess = ri + rj - dist - limit * ti.min(ri, rj)
+                    excess = (ri + rj - dist - limit * ti.min(ri, rj)
+                              - (particles.allowance[i] + particles.allowance[j]))
                     if excess > 0.0:
                         mj = particles.mass[j]
                         wi = mj / (mi + mj)
