@@ -436,8 +436,8 @@ class ParticleCollisions:
             self.lists.invalidate()  # the Verlet lists, if any, were in the arrays just rebuilt
         shock.support_levels(world, self.grid.lists, particles.x, self.levels, self.changed)
         for _ in range(shock.SHOCK_PASSES // shock.PASSES_PER_LAUNCH):
-            shock.limit_passes(particles.args, self.grid.lists, self.levels, shock.DEM_OVERLAP_LIMIT, dt,
-                               self.contacts, self.delta, self.changed)
+            shock.limit_passes(particles.args, world.colliders.args, world.colliders.groups, self.grid.lists,
+                               self.levels, shock.DEM_OVERLAP_LIMIT, self.contacts, self.delta, self.v1, self.changed)
             if not self._changed():
                 break
 

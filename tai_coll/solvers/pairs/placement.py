@@ -257,7 +257,7 @@ def _walk(stage: ti.template(), i, slot, particles: ti.template(), candidates: t
 
 
 @ti.func
-def _off_colliders(c: ti.template(), groups: ti.template(), x: vec3, r, dx: vec3) -> vec3:
+def off_colliders(c: ti.template(), groups: ti.template(), x: vec3, r, dx: vec3) -> vec3:
     """The move dx of a particle at x (radius r) less its part into the colliders it would
     touch at x + dx (their poses at the substep's end): the separation does not push particles
     into walls, whose springs would throw them back out."""
@@ -314,7 +314,7 @@ def separation_kernel(listed: bool):
             dv[i] = brake
             # however many pairs push it, a particle moves at most push_distance
             move = push * ti.min(1.0, push_distance / ti.max(push.norm(), TINY))
-            dx[i] = _off_colliders(colliders, groups, particles.x[i], particles.radius[i], move)
+            dx[i] = off_colliders(colliders, groups, particles.x[i], particles.radius[i], move)
         for i in range(particles.count):
             if particles.flags[i] == ACTIVE:
                 particles.x[i] += dx[i]

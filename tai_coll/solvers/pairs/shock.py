@@ -21,9 +21,9 @@ without it: docs/design-notes.md) and gravity is not zero (no up, no support).
 DEM pairs (docs/physics.md 5.4) carry loads by their springs, and a spring on a light
 particle cannot hold a heavy one (it would need a stiffness no explicit step of the light
 particle's mass keeps stable). Under the same condition, after each DEM substep, `limit_passes`
-removes the overlap of every pair beyond DEM_OVERLAP_LIMIT of the smaller radius, by
-positions with the velocity following (inelastic, as a projection), the lower support level
-of the pair immovable: the spring keeps its law up to the limit, and nothing sinks through.
+removes the overlap of every pair beyond DEM_OVERLAP_LIMIT of the smaller radius by
+positions, and stops such pairs' approach (inelastic), the lower support level of the pair
+immovable: the spring keeps its law up to the limit, and nothing sinks through.
 """
 
 import taichi as ti
@@ -31,6 +31,7 @@ import taichi as ti
 from ...response.laws import pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, vec3
 from ..detection import collider_sdf
+from .placement import off_colliders
 
 # Particles whose masses differ by more than this ratio get shock propagation.
 SHOCK_MASS_RATIO = 10.0
@@ -136,19 +137,24 @@ def support_levels(world, lists, x1, levels, changed) -> int:
 
 
 @ti.kernel
-def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit: float, dt: float,
+def limit_passes(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), lists: ListArgs,
+                 levels: ARRAY, limit: float,
                  # work
-                 counts: ARRAY, dx: ARRAY,
+                 counts: ARRAY, dx: ARRAY, dv: ARRAY,
                  # outputs
                  changed: ARRAY):
     """PASSES_PER_LAUNCH Jacobi passes over full neighbour lists (DEM pairs): every pair
     overlapping by more than `limit` of its smaller radius is moved apart by the excess, the
     lower support level immovable (fixed_shares), equal levels split by inverse mass, each
     pair's share divided by the larger count of such pairs of its two particles
-    (jacobi.pair_share: a crowd converges without over-correcting); the velocity follows the
-    position (dx / dt). Overlap covered by the pair's allowances (placed overlap, placement.py)
-    is not the limit's: it goes by positions only. A frozen neighbour is immovable.
-    changed[0]: whether the last pass found a pair beyond (1 + LIMIT_SLACK) times the limit."""
+    (jacobi.pair_share: a crowd converges without over-correcting), and not into a collider
+    (placement.off_colliders: its spring would throw the particle back). The velocity does not
+    follow the move: with DEM's small substeps, a correction over dt would be a large speed
+    (a leftover of 1e-5 m in a substep of 1e-5 s is 1 m/s). Instead, the same shares stop the
+    pair's approach (the normal relative velocity, inelastic: it only takes energy). Overlap
+    covered by the pair's allowances (placed overlap, placement.py) is not the limit's: it goes
+    by positions only. A frozen neighbour is immovable. changed[0]: whether the last pass found
+    a pair beyond (1 + LIMIT_SLACK) times the limit."""
     for _ in ti.static(range(PASSES_PER_LAUNCH)):
         changed[0] = 0
         for i in range(particles.count):
@@ -170,6 +176,7 @@ def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit:
                 changed[0] = 1
         for i in range(particles.count):
             move = vec3(0.0, 0.0, 0.0)
+            brake = vec3(0.0, 0.0, 0.0)
             if particles.flags[i] == ACTIVE and counts[i] > 0:
                 ri = particles.radius[i]
                 mi = particles.mass[i]
@@ -186,9 +193,14 @@ def limit_passes(particles: ParticleArgs, lists: ListArgs, levels: ARRAY, limit:
                         if particles.flags[j] != ACTIVE:
                             wi, wj = 1.0, 0.0
                         wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
-                        move += (wi * excess / ti.max(counts[i], counts[j], 1)) * nrm
+                        share = wi / ti.max(counts[i], counts[j], 1)
+                        move += (share * excess) * nrm
+                        vn = (particles.v[i] - particles.v[j]).dot(nrm)
+                        brake -= (share * ti.min(vn, 0.0)) * nrm
+                move = off_colliders(colliders, groups, particles.x[i], ri, move)
             dx[i] = move
+            dv[i] = brake
         for i in range(particles.count):
             if particles.flags[i] == ACTIVE:
                 particles.x[i] += dx[i]
-                particles.v[i] += dx[i] / dt
+                particles.v[i] += dv[i]
