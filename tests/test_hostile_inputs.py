@@ -64,6 +64,8 @@ def f32_rules(monkeypatch):
     (lambda s: tc.Implicit(lambda p: 1e39 * np.linalg.norm(p, axis=1), bounds=((-1, -1, -1), (1, 1, 1)),
                            resolution=8), "function values"),
     (lambda s: tc.HeightField(heights=[[0.0, 0.0], [0.0, 1e39]], cell_size=0.1), "heights"),
+    (lambda s: tc.collide_pair([1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1e-50, 1.0), "mass_a"),
+    (lambda s: tc.collide_pair([1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0, 1e39), "mass_b"),
     (lambda s: tc.TriangleMesh(mesh=([[0.0, 0.0, 0.0], [1e39, 0.0, 0.0], [0.0, 1.0, 0.0]], [[0, 1, 2]])),
      "mesh vertices"),
 ])

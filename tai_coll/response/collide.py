@@ -110,6 +110,7 @@ def collide_pair(va, vb, n, mass_a, mass_b, restitution=0.5, friction=0.0, *, we
         m = np.broadcast_to(np.asarray(m, dtype=np.float64), (count,))
         if np.any(np.isnan(m)) or np.any(m <= 0):
             raise ValueError(f"{name} must be > 0 (np.inf for an immovable body)")
+        validate.representable(name, m[np.isfinite(m)])  # (1e-50 kg would be an infinite 1/m in f32)
         inv.append(1.0 / m)
     if np.any((inv[0] == 0) & (inv[1] == 0)):
         raise ValueError("mass_a and mass_b cannot both be infinite")
