@@ -247,8 +247,7 @@ class ParticleCollisions:
         into a floor are back on it), the support levels, and projection passes with each
         pair's lower particle fixed. Returns the levels for the settle pass (None without)."""
         particles = world.particles
-        lightest, heaviest = particles.mass_range
-        if heaviest <= shock.SHOCK_MASS_RATIO * lightest or not any(world.gravity):
+        if not shock.needed(world):
             return None
         if self.levels is None:
             self.levels = ti.ndarray(ti.i32, shape=self.capacity)
@@ -423,8 +422,7 @@ class ParticleCollisions:
         immovable, until none is left or SHOCK_PASSES (docs/physics.md 5.4). The pairs: the
         force kernel's lists, or (it queried the grid) full lists of the pairs touching now."""
         particles = world.particles
-        lightest, heaviest = particles.mass_range
-        if heaviest <= shock.SHOCK_MASS_RATIO * lightest or not any(world.gravity) or not particles.count:
+        if not shock.needed(world):
             return
         if self.levels is None:
             self.levels = ti.ndarray(ti.i32, shape=self.capacity)

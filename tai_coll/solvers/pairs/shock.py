@@ -32,6 +32,7 @@ from ...response.laws import pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, vec3
 from ..detection import collider_sdf
 from .placement import off_colliders
+from .sleeping import shares
 
 # Particles whose masses differ by more than this ratio get shock propagation.
 SHOCK_MASS_RATIO = 10.0
@@ -121,6 +122,13 @@ def fixed_shares(wi, wj, level_i, level_j):
     return si, sj
 
 
+def needed(world) -> bool:
+    """Whether the scene's particles get shock propagation (Gauss-Seidel) or the DEM overlap
+    limit: masses more than SHOCK_MASS_RATIO apart, under gravity."""
+    lightest, heaviest = world.particles.mass_range
+    return world.particles.count > 0 and heaviest > SHOCK_MASS_RATIO * lightest and any(world.gravity)
+
+
 def support_levels(world, lists, x1, levels, changed) -> int:
     """Each particle's support level at the candidates x1 (the module's notes) into levels;
     returns the propagation passes it took."""
@@ -187,11 +195,8 @@ def limit_passes(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.te
                     excess = (ri + rj - dist - limit * ti.min(ri, rj)
                               - (particles.allowance[i] + particles.allowance[j]))
                     if excess > 0.0:
-                        mj = particles.mass[j]
-                        wi = mj / (mi + mj)
-                        wj = mi / (mi + mj)
-                        if particles.flags[j] != ACTIVE:
-                            wi, wj = 1.0, 0.0
+                        # by inverse mass; a frozen neighbour immovable, as a sleeping one is
+                        wi, wj = shares(mi, particles.mass[j], False, particles.flags[j] != ACTIVE)
                         wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
                         share = wi / ti.max(counts[i], counts[j], 1)
                         move += (share * excess) * nrm
