@@ -78,12 +78,15 @@ ShapeArgs = ti.types.argpack(ishape=ti.types.ndarray(dtype=ti.types.vector(8, ti
 #: `body_com` (its centre of mass at the substep's start); and the ledger of what particles
 #: gave bodies this substep: two slots per particle (`ledger_body`: body or -1,
 #: `ledger_impulse`: N s, `ledger_torque`: N m s about the body's centre of mass), and
-#: `body_total` (2 rows per body, impulse and torque) for a third body touched at once.
+#: `body_total` (2 rows per body, impulse and torque) for a third body touched at once;
+#: `support` (per particle, shock.py's support levels) and `support_up` (one vector: up, or
+#: zero while particles held by their supports do not stop bodies, docs/physics.md 6.2).
 ColliderArgs = ti.types.argpack(count=ti.i32, kind=ARRAY, params=ARRAY, material=ARRAY, center0=ARRAY,
                                 rotation0=ARRAY, center1=ARRAY, rotation1=ARRAY, velocity=ARRAY,
                                 angular_velocity=ARRAY, ishape=ARRAY, fshape=ARRAY, fpool=ARRAY, ipool=ARRAY,
                                 body=ARRAY, body_inv_mass=ARRAY, body_inv_inertia=ARRAY, body_com=ARRAY,
-                                ledger_body=ARRAY, ledger_impulse=ARRAY, ledger_torque=ARRAY, body_total=ARRAY)
+                                ledger_body=ARRAY, ledger_impulse=ARRAY, ledger_torque=ARRAY, body_total=ARRAY,
+                                support=ARRAY, support_up=ARRAY)
 
 #: A hash grid's counting sort (neighbors/hash_grid.py), for kernels that query it: the
 #: table's bucket count and bits per axis, each bucket's first entry (`starts`), the particle

@@ -15,10 +15,13 @@ import numpy as np
 import taichi as ti
 
 from .. import runtime
-from ..types import ARRAY
+from ..response.exchange import BODY_MASK, HELD_BIT
+from ..solvers.detection import BOUND_SLOT, collider_sdf
+from ..types import ACTIVE, ARRAY, ColliderArgs, ParticleArgs
 
-# Rows of the collect kernel's output per body: impulse, torque, and the count (in x).
-OUT_ROWS = 3
+# Rows of the collect kernel's output per body: impulse and torque from free particles, the
+# same from held ones (response/exchange.py `held`), and the counts of each (x, y).
+OUT_ROWS = 5
 
 
 class Coupling:
@@ -27,7 +30,9 @@ class Coupling:
         self.capacity = 0  # particles the ledger has slots for
         self.body_rows = 0  # bodies body_total has rows for
         self.counts = np.zeros(0)  # particles that touched each body in the last substep
+        self.shares = np.zeros(0)  # the mass splitting of this substep (upload)
         self._out = None
+        self._near = None
 
     def ensure(self, particle_capacity: int, bodies: int):
         """Ledger slots for particle_capacity particles and rows for `bodies` bodies."""
@@ -44,9 +49,25 @@ class Coupling:
             self._out = ti.Vector.ndarray(3, float, shape=OUT_ROWS * self.body_rows)
         if len(self.counts) < bodies:
             self.counts = np.concatenate([self.counts, np.zeros(bodies - len(self.counts))])
+            self.shares = np.ones(bodies)
 
-    def upload(self, store):
-        """Each body's row of the collider table for the coming substep (docs/physics.md 6.2)."""
+    def count_near(self, world, dt: float):
+        """How many particles may touch each body in the coming substep: within a radius of
+        touching it, beyond the way they close in on it in dt (the body's predicted pose in
+        the table). These counts split the body's mass (an over-count only makes the body
+        take a substep longer to follow its particles; an under-count would let many at once
+        throw it)."""
+        table = self.table
+        particles = world.particles
+        if self._near is None or self._near.shape[0] < self.body_rows:
+            self._near = ti.ndarray(ti.i32, shape=self.body_rows)
+        self._near.fill(0)
+        _count_near(particles.args, table.args, table.groups, dt, self._near)
+        return self._near.to_numpy()
+
+    def upload(self, store, near=None):
+        """Each body's row of the collider table for the coming substep (docs/physics.md 6.2);
+        near: this substep's counts of particles near each body (count_near)."""
         table = self.table
         dtype = runtime.float_dtype()
         n = len(table.entries)
@@ -57,7 +78,8 @@ class Coupling:
         index = {id(e): k for k, e in enumerate(table.entries[:n])}
         for b in range(store.count):
             k = index[id(store.entries[b])]
-            share = max(1.0, float(self.counts[b]))
+            share = max(1.0, float(self.counts[b]), 0.0 if near is None else float(near[b]))
+            self.shares[b] = share
             body[k] = b
             inv_mass[k] = share / store.mass[b]
             inv_inertia[k] = share * store.inv_inertia_world(b)
@@ -69,41 +91,73 @@ class Coupling:
 
     def collect(self, store, particle_count: int):
         """Sum and clear the ledger: (impulses (B, 3) and torques (B, 3) the particles got
-        from each body this substep, float64); the counts are kept for the next upload."""
+        from each body this substep, float64); the counts are kept for the next upload.
+
+        Held particles (shock propagation, docs/physics.md 6.2) each stopped the body as
+        though it were one of `share` particles; the body takes the mean over those that
+        touched it, their sum times share / (their count): their supports take the
+        momentum, so nothing is conserved there that this would break."""
         B = store.count
         serial = runtime.info().arch == "cpu"
         _collect(self.table.ledger_body, self.table.ledger_impulse, self.table.ledger_torque, self.table.body_total,
                  particle_count, B, serial, self._out)
         out = self._out.to_numpy().astype(np.float64)[:OUT_ROWS * B].reshape(B, OUT_ROWS, 3) if B else \
             np.zeros((0, OUT_ROWS, 3))
-        self.counts[:B] = out[:, 2, 0]
-        return out[:, 0], out[:, 1]
+        held = out[:, 4, 1]
+        scale = np.where(held > 0, self.shares[:B] / np.maximum(held, 1.0), 0.0)[:, None]
+        self.counts[:B] = out[:, 4, 0] + held
+        return out[:, 0] + scale * out[:, 2], out[:, 1] + scale * out[:, 3]
 
 
 @ti.kernel
 def _collect(ledger_body: ARRAY, ledger_impulse: ARRAY, ledger_torque: ARRAY, body_total: ARRAY, count: ti.i32,
              bodies: ti.i32, serial: ti.template(), out: ARRAY):
     for b in range(bodies):
-        out[3 * b] = body_total[2 * b]
-        out[3 * b + 1] = body_total[2 * b + 1]
-        out[3 * b + 2] = ti.math.vec3(0.0, 0.0, 0.0)
+        for row in ti.static(range(OUT_ROWS)):
+            out[OUT_ROWS * b + row] = ti.math.vec3(0.0, 0.0, 0.0)
+        out[OUT_ROWS * b] = body_total[2 * b]
+        out[OUT_ROWS * b + 1] = body_total[2 * b + 1]
         body_total[2 * b] = ti.math.vec3(0.0, 0.0, 0.0)
         body_total[2 * b + 1] = ti.math.vec3(0.0, 0.0, 0.0)
     if ti.static(serial):
         # one pass in particle order: the same sums, bit for bit, in every run
         ti.loop_config(serialize=True)
         for k in range(2 * count):
-            b = ledger_body[k]
-            if b >= 0:
-                out[3 * b] += ledger_impulse[k]
-                out[3 * b + 1] += ledger_torque[k]
-                out[3 * b + 2][0] += 1.0
+            entry = ledger_body[k]
+            if entry >= 0:
+                b = entry & BODY_MASK
+                held = (entry & HELD_BIT) != 0
+                row = OUT_ROWS * b + ti.select(held, 2, 0)
+                out[row] += ledger_impulse[k]
+                out[row + 1] += ledger_torque[k]
+                out[OUT_ROWS * b + 4][ti.select(held, 1, 0)] += 1.0
                 ledger_body[k] = -1
     else:
         for k in range(2 * count):
-            b = ledger_body[k]
-            if b >= 0:
-                ti.atomic_add(out[3 * b], ledger_impulse[k])
-                ti.atomic_add(out[3 * b + 1], ledger_torque[k])
-                ti.atomic_add(out[3 * b + 2][0], 1.0)
+            entry = ledger_body[k]
+            if entry >= 0:
+                b = entry & BODY_MASK
+                held = (entry & HELD_BIT) != 0
+                row = OUT_ROWS * b + ti.select(held, 2, 0)
+                ti.atomic_add(out[row], ledger_impulse[k])
+                ti.atomic_add(out[row + 1], ledger_torque[k])
+                ti.atomic_add(out[OUT_ROWS * b + 4][ti.select(held, 1, 0)], 1.0)
                 ledger_body[k] = -1
+
+
+@ti.kernel
+def _count_near(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), dt: float, near: ARRAY):
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE:
+            xi = particles.x[i]
+            ri = particles.radius[i]
+            for ci in range(colliders.count):
+                b = colliders.body[ci]
+                if b >= 0:
+                    way = (particles.v[i] - colliders.velocity[ci]).norm() * dt + \
+                        colliders.angular_velocity[ci].norm() * colliders.params[ci][BOUND_SLOT] * dt
+                    reach = 2.0 * ri + way
+                    if (xi - colliders.center1[ci]).norm() - colliders.params[ci][BOUND_SLOT] < reach:
+                        phi, n = collider_sdf(colliders, groups, ci, xi, True, reach)
+                        if phi < reach:
+                            ti.atomic_add(near[b], 1)

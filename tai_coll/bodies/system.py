@@ -27,6 +27,8 @@ class BodyMotion:
     """The `motion` of a body's collider entry: the table takes its poses and rates from the
     body (scene/colliders.py calls `pose` and `rates` in ColliderTable.advance)."""
 
+    is_body = True
+
     def __init__(self, store: BodyStore, index: int):
         self.store = store
         self.index = index
@@ -66,7 +68,8 @@ class BodySystem:
         predicted = [store.advanced_pose(b, dt) for b in range(store.count)]
         self._set_table_poses(predicted, dt)
         self.coupling.ensure(world.particles.capacity, store.count)
-        self.coupling.upload(store)
+        near = self.coupling.count_near(world, dt) if world.particles.count else None
+        self.coupling.upload(store, near)
 
     def end(self, world, dt: float):
         """After the particles' substep: their impulses, then the committed poses."""

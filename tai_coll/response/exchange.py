@@ -26,6 +26,15 @@ import taichi as ti
 
 from .laws import respond
 
+# A ledger slot's body index, and the flag of a slot whose particle was held (`held`).
+BODY_MASK = (1 << 24) - 1
+HELD_BIT = 1 << 24
+
+# (solvers/pairs/shock.py's: a level below NO_SUPPORT rests on a collider through contacts;
+# a body lies on a particle when its outward normal there is within acos(SUPPORT_COS) of down)
+NO_SUPPORT = 1 << 30
+SUPPORT_COS = 0.25
+
 vec3 = ti.math.vec3
 
 
@@ -37,9 +46,10 @@ def ledger_slot(c: ti.template(), i, b):
     for s in ti.static(range(2)):
         if slot < 0:
             k = 2 * i + s
-            if c.ledger_body[k] == b:
+            entry = c.ledger_body[k]
+            if entry >= 0 and (entry & BODY_MASK) == b:
                 slot = k
-            elif c.ledger_body[k] < 0:
+            elif entry < 0:
                 c.ledger_body[k] = b
                 c.ledger_impulse[k] = vec3(0.0, 0.0, 0.0)
                 c.ledger_torque[k] = vec3(0.0, 0.0, 0.0)
@@ -59,15 +69,37 @@ def seen_velocity(c: ti.template(), ci, slot, vs: vec3, point: vec3) -> vec3:
 
 
 @ti.func
+def held(c: ti.template(), i, n: vec3) -> bool:
+    """Whether particle i, touching a body whose outward normal there is n, lies under it and
+    is held by what it rests on (its support level, solvers/pairs/shock.py): shock
+    propagation (docs/physics.md 6.2) makes it immovable against the body."""
+    out = False
+    up = c.support_up[0]
+    if up.norm_sqr() > 0.0:  # (zero: off, and `support` may be a placeholder)
+        out = c.support[i] < NO_SUPPORT and n.dot(up) < -SUPPORT_COS
+    return out
+
+
+@ti.func
 def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3, restitution,
-             wet_law: ti.template()):
-    """docs/physics.md 6.2: particle i (inverse mass inv_mass, 0 for a particle held by its
-    supports; centre x_ref) at velocity v against body collider ci's surface at `point`
-    (outward normal n, table surface velocity vs). Returns (the particle's new velocity,
-    whether the law changed anything)."""
+             push_speed, wet_law: ti.template()):
+    """docs/physics.md 6.2: particle i (inverse mass inv_mass; centre x_ref) at velocity v
+    against body collider ci's surface at `point` (outward normal n, table surface velocity
+    vs). push_speed: a particle found inside the body that is held (`held`) pushes the body
+    out at this speed. Returns (the particle's new velocity, whether the law changed
+    anything)."""
     b = c.body[ci]
     slot = ledger_slot(c, i, b)
     seen = seen_velocity(c, ci, slot, vs, point)
+    if held(c, i, n):
+        # The body takes the contact's whole change. Held, the particle moves neither away
+        # from the body (its supports stop it) nor towards it (that motion is the passes'
+        # doing, pushed up out of its neighbours, not a blow): the body is stopped on it, not
+        # thrown; one found inside pushes it out at push_speed.
+        inv_mass = 0.0
+        v = v - (v.dot(n) + push_speed) * n
+        if slot >= 0:
+            c.ledger_body[slot] |= HELD_BIT
     m = c.material[ci]
     v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
     delta = seen + v_rel - v

@@ -75,11 +75,28 @@ class ColliderTable:
         self.body_inv_mass = ti.ndarray(float, shape=capacity)
         self.body_inv_inertia = ti.Matrix.ndarray(3, 3, float, shape=capacity)
         self.body_com = ti.Vector.ndarray(3, float, shape=capacity)
+        if not hasattr(self, "support"):
+            self.support = ti.ndarray(ti.i32, shape=1)
+            self.support_up = ti.Vector.ndarray(3, float, shape=1)
+            self.support_up.fill(0.0)
         if not hasattr(self, "ledger_body"):
             self.set_ledger(ti.ndarray(ti.i32, shape=1), ti.Vector.ndarray(3, float, shape=1),
                             ti.Vector.ndarray(3, float, shape=1), ti.Vector.ndarray(3, float, shape=1))
         self.capacity = capacity
         self._args = None
+
+    def set_support(self, levels, up):
+        """Particles' support levels (shock.py) and the up direction: against a body above it,
+        a particle held by its supports is immovable (docs/physics.md 6.2); up None: off."""
+        if levels is not None and levels is not self.support:
+            self.support = levels
+            self._args = None
+        self.support_up.from_numpy(np.zeros((1, 3), dtype=runtime.float_dtype()) if up is None else
+                                   np.asarray(up, dtype=runtime.float_dtype()).reshape(1, 3))
+
+    @property
+    def has_bodies(self) -> bool:
+        return any(getattr(e.motion, "is_body", False) for e in self.entries)
 
     def set_ledger(self, ledger_body, ledger_impulse, ledger_torque, body_total):
         """The per-particle ledger of impulses given to bodies (bodies/coupling.py) that the
@@ -101,7 +118,8 @@ class ColliderTable:
                                       body_inv_mass=self.body_inv_mass, body_inv_inertia=self.body_inv_inertia,
                                       body_com=self.body_com, ledger_body=self.ledger_body,
                                       ledger_impulse=self.ledger_impulse, ledger_torque=self.ledger_torque,
-                                      body_total=self.body_total)
+                                      body_total=self.body_total, support=self.support,
+                                      support_up=self.support_up)
         return self._args
 
     def __len__(self):

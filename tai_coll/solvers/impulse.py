@@ -31,7 +31,7 @@ import taichi as ti
 
 from .. import validate
 from ..geometry import kinds
-from ..response.exchange import body_law
+from ..response.exchange import body_law, held
 from ..response.laws import WET_LAWS, respond
 from ..response.penalty import FIELD_NONE, apply_repulsion
 from ..response.repulsion import RepulsionField, pack
@@ -55,16 +55,17 @@ SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT,
 
 @ti.func
 def apply_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, r, v: vec3, n: vec3, vs: vec3, restitution,
-              wet_law: ti.template()):
+              wet_law: ti.template(), push_speed=0.0):
     """docs/physics.md 2 on the velocity relative to the collider's surface, with its material;
     against a rigid body, the two-body law (docs/physics.md 6.2) for particle i of inverse
     mass inv_mass centred at x_ref (radius r), which books the body's share in the ledger.
     Returns (the new velocity, whether the law changed it: a body this particle has already
-    pushed away, as it sees the body, needs nothing more)."""
+    pushed away, as it sees the body, needs nothing more). push_speed: exchange.body_law's."""
     v_new = v
     changed = True
     if c.body[ci] >= 0:
-        v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, wet_law)
+        v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, push_speed,
+                                  wet_law)
     else:
         m = c.material[ci]
         v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
@@ -91,9 +92,12 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
         inside, depth, n, point, entered = start_penetration(c, groups, kinematic, ci, x0, v0, r, slop, dt)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
-            v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law)
+            push_speed = ti.min(last_resort[0] * depth / dt, max_push_speed)
+            v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, push_speed)
             field_kind = ti.cast(last_resort[1], ti.i32)
-            if entered:
+            if c.body[ci] >= 0 and held(c, i, n):
+                pass  # held by its supports: the body was pushed out instead (exchange.body_law)
+            elif entered:
                 push += depth * n
             elif field_kind == FIELD_NONE:
                 push += ti.min(last_resort[0] * depth, max_push_speed * dt) * n

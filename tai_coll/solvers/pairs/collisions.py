@@ -37,6 +37,8 @@ work arrays, the grid, the lists and the springs, and counts what happened.
 
 import math
 
+import numpy as np
+
 import taichi as ti
 
 from ... import runtime
@@ -193,6 +195,13 @@ class ParticleCollisions:
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max))
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
+        # A body lying on particles held by what they rest on is stopped by them in this
+        # substep's collider passes (shock propagation, docs/physics.md 6.2).
+        table = world.colliders
+        support = settings.method == "gauss-seidel" and any(world.gravity) and table.has_bodies
+        if support:
+            table.set_support(self._support_levels(world, particles.x),
+                              -np.asarray(world.gravity) / np.linalg.norm(world.gravity))
         # 3. elastic pass on v(t)
         self.v_start.copy_from(particles.v)
         if sleep:
@@ -235,11 +244,20 @@ class ParticleCollisions:
                                      self.changed, self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels)
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
+        if support:
+            table.set_support(None, None)
         self._latest_counts = self._counts[0]
         self._relax(particles, dt)
         if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
             update_rest(particles.args, self.delta, self.v_start, ti.math.vec3(*world.gravity), dt,
                         settings.sleep_time, settings.sleep_drift)
+
+    def _support_levels(self, world, x):
+        """The support levels (shock.py) at positions x, into self.levels."""
+        if self.levels is None or self.levels.shape[0] < self.capacity:
+            self.levels = ti.ndarray(ti.i32, shape=self.capacity)
+        shock.support_levels(world, self.grid.lists, x, self.levels, self.changed)
+        return self.levels
 
     def _shock(self, world, solver, dt: float, placed: bool):
         """Shock propagation (shock.py) where the particles' masses differ by more than
