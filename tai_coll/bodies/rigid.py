@@ -62,7 +62,8 @@ INFINITY = 1e30
 # Columns of the packed arrays the two kernels take (one row per sample, slot, contact, body).
 SAMPLE_COLUMNS = 7   # position (3), radius, velocity (3)
 FOUND_COLUMNS = 7    # gap, normal (3), surface velocity (3)
-CONTACT_COLUMNS = 15  # normal (3), arm a (3), arm b (3), surface velocity (3), gap, restitution, friction
+CONTACT_COLUMNS = 19  # normal (3), arm a (3), arm b (3), surface velocity (3), gap, restitution, friction,
+#                       warm start: normal impulse, friction impulse (3, world)
 BODY_COLUMNS = 16    # v (3), w (3), inverse mass, world inverse inertia (9, row-major)
 WORK_COLUMNS = 16    # tangents (6), effective masses n, t1, t2, target, impulses n, t1, t2, target_p, impulse_p
 TOTAL_COLUMNS = 12   # linear impulse (3), angular impulse (3), pseudo-velocity (3), pseudo angular velocity (3)
@@ -76,12 +77,53 @@ def combined_material(body_material, collider_material):
             float(np.sqrt(body_material.friction * collider_material.friction)))
 
 
-def resolve_contacts(store, table, gravity, dt: float) -> int:
+class ContactCache:
+    """The impulses of the last substep's contacts, to start the next solve from (warm
+    starting): a resting contact then needs only the change of its impulse, and a stack's
+    Gauss-Seidel passes settle it without residual motion. Keyed by (body, collider index,
+    sample), so contacts that persist from one substep to the next find theirs.
+
+    It is state beside the bodies': a scene that saves and restores its bodies should save
+    and restore this too (`state()` / `restore()`), or `clear()` it, for bit-identical runs."""
+
+    def __init__(self):
+        self.clear()
+
+    def clear(self):
+        self.keys = np.zeros(0, dtype=np.int64)  # ascending
+        self.impulses = np.zeros((0, 4))  # normal impulse (N s), friction impulse (3, world)
+
+    def state(self) -> dict:
+        return {"keys": self.keys.copy(), "impulses": self.impulses.copy()}
+
+    def restore(self, state: dict):
+        self.keys, self.impulses = state["keys"].copy(), state["impulses"].copy()
+
+    def lookup(self, keys: np.ndarray) -> np.ndarray:
+        """The stored impulses of `keys` ((K, 4); zeros where a contact is new)."""
+        out = np.zeros((len(keys), 4))
+        if len(self.keys):
+            where = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
+            found = self.keys[where] == keys
+            out[found] = self.impulses[where[found]]
+        return out
+
+
+def contact_keys(body, collider, sample):
+    """Keys of contacts that stay the same from one substep to the next, ascending in slot
+    order: body, then collider index, then the sample's index in the body (both < 2**20)."""
+    return (body.astype(np.int64) << 40) | (collider.astype(np.int64) << 20) | sample.astype(np.int64)
+
+
+def resolve_contacts(store, table, gravity, dt: float, cache: ContactCache = None) -> int:
     """Contacts of every body of `store` (bodies.store.BodyStore) against every other collider
     of `table` (scene.colliders.ColliderTable: static, kinematic and the other bodies'
     entries) over one substep of dt seconds, gravity (3,) in m/s^2. Adds g dt to every
     body's velocity, resolves the contacts into store.v and store.L, and moves store.x and
-    store.R out of penetration. Returns the number of contacts (speculative ones included)."""
+    store.R out of penetration. Returns the number of contacts (speculative ones included).
+
+    cache: a ContactCache kept from substep to substep turns warm starting on (None: every
+    solve starts from zero impulses, and the result depends on the bodies' state only)."""
     dt = float(dt)
     if not dt > 0.0:
         raise ValueError(f"dt must be > 0; got {dt}")
@@ -93,12 +135,16 @@ def resolve_contacts(store, table, gravity, dt: float) -> int:
     bounce_speed = max(BOUNCE_FACTOR * float(np.linalg.norm(gravity)) * dt, BOUNCE_FLOOR)
     slots, samples, sample_body, owner_of_entry = _broad_phase(store, table, bodies, dt)
     if len(slots) == 0:
+        if cache is not None:
+            cache.clear()
         return 0
     dtype = runtime.float_dtype()
     found = np.empty((len(slots), FOUND_COLUMNS), dtype=dtype)
     _detect(colliders=table.args, groups=table.groups, samples=samples.astype(dtype), slots=slots, dt=dt,
             margin=MARGIN, slack=bounce_speed, found=found)
-    contacts, pairs = _gather(store, table, slots, samples, sample_body, owner_of_entry, found)
+    contacts, pairs, keys = _gather(store, table, slots, samples, sample_body, owner_of_entry, found)
+    if cache is not None:
+        contacts[:, 15:19] = cache.lookup(keys)
     if len(contacts) == 0:
         return 0
     body_rows = bodies.astype(dtype)
@@ -108,6 +154,9 @@ def resolve_contacts(store, table, gravity, dt: float) -> int:
            iterations=VELOCITY_ITERATIONS, position_iterations=POSITION_ITERATIONS, correction=CORRECTION,
            slop=SLOP, max_push=MAX_PUSH_SPEED, work=work, totals=totals)
     _apply(store, totals.astype(np.float64), dt)
+    if cache is not None:
+        cache.keys = keys
+        cache.impulses = np.column_stack([work[:, 10], work[:, 11:12] * work[:, 0:3] + work[:, 12:13] * work[:, 3:6]])
     return len(contacts)
 
 
@@ -166,11 +215,12 @@ def _broad_phase(store, table, bodies, dt):
 
 def _gather(store, table, slots, samples, sample_body, owner_of_entry, found):
     """Phase 4: the slots holding a contact, in slot order, as the solve's rows ((C,
-    CONTACT_COLUMNS) float64) and body pairs ((C, 2) int32: the sample's body, the other
-    body or -1 for a static or kinematic collider)."""
+    CONTACT_COLUMNS) float64, warm-start impulses zero), body pairs ((C, 2) int32: the
+    sample's body, the other body or -1 for a static or kinematic collider) and their
+    keys (contact_keys)."""
     hit = np.flatnonzero(found[:, 0] < 0.5 * INFINITY)
     if len(hit) == 0:
-        return np.zeros((0, CONTACT_COLUMNS)), np.zeros((0, 2), dtype=np.int32)
+        return np.zeros((0, CONTACT_COLUMNS)), np.zeros((0, 2), dtype=np.int32), np.zeros(0, dtype=np.int64)
     sample, collider = slots[hit, 0], slots[hit, 1]
     gap = found[hit, 0].astype(np.float64)
     normal = found[hit, 1:4].astype(np.float64)
@@ -188,9 +238,12 @@ def _gather(store, table, slots, samples, sample_body, owner_of_entry, found):
     entry_mu = np.array([e.material.friction for e in table.entries])
     restitution = np.maximum(body_e[a], entry_e[collider])  # combined_material, vectorised
     friction = np.sqrt(body_mu[a] * entry_mu[collider])
-    contacts = np.column_stack([normal, arm_a, arm_b, surface, gap, restitution, friction])
+    warm = np.zeros((len(hit), 4))
+    contacts = np.column_stack([normal, arm_a, arm_b, surface, gap, restitution, friction, warm])
     pairs = np.ascontiguousarray(np.column_stack([a, other]), dtype=np.int32)
-    return np.ascontiguousarray(contacts), pairs
+    first = np.searchsorted(sample_body, np.arange(store.count))  # each body's first sample
+    keys = contact_keys(a, collider, sample - first[a])
+    return np.ascontiguousarray(contacts), pairs, keys
 
 
 def _apply(store, totals, dt):
@@ -353,6 +406,24 @@ def _solve(contacts: ti.types.ndarray(), pairs: ti.types.ndarray(), bodies: ti.t
             work[k, 9] = target
             # Position correction: push out a fraction of the depth beyond the slop.
             work[k, 13] = ti.min(correction * (-gap - slop) / dt, max_push)
+        # Warm start (after every target is set from the velocities before the solve): the
+        # impulses the contacts ended the last substep with, friction within its disc.
+        for k in range(contacts.shape[0]):
+            normal_impulse = contacts[k, 15]
+            if normal_impulse > 0.0:
+                friction = _row3(contacts, k, 16)
+                f1 = friction.dot(_row3(work, k, 0))
+                f2 = friction.dot(_row3(work, k, 3))
+                limit = contacts[k, 14] * normal_impulse
+                size = ti.sqrt(f1 * f1 + f2 * f2)
+                if size > limit:
+                    f1 *= limit / size
+                    f2 *= limit / size
+                impulse = normal_impulse * _row3(contacts, k, 0) + f1 * _row3(work, k, 0) + f2 * _row3(work, k, 3)
+                _push(contacts, pairs, bodies, totals, k, impulse, False)
+                work[k, 10] = normal_impulse
+                work[k, 11] = f1
+                work[k, 12] = f2
         # Velocities: Gauss-Seidel with accumulated impulses (normal >= 0; friction within
         # the Coulomb disc mu * normal impulse, docs/physics.md 2, step 3).
         for _it in range(iterations):
