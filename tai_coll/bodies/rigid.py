@@ -111,7 +111,7 @@ class ContactCache:
 
 def contact_keys(body, collider, sample):
     """Keys of contacts that stay the same from one substep to the next, ascending in slot
-    order: body, then collider index, then the sample's index in the body (both < 2**20)."""
+    order: body, then collider index, then the sample's index in the body (each below 2**20)."""
     return (body.astype(np.int64) << 40) | (collider.astype(np.int64) << 20) | sample.astype(np.int64)
 
 
@@ -128,6 +128,8 @@ def resolve_contacts(store, table, gravity, dt: float, cache: ContactCache = Non
     if not dt > 0.0:
         raise ValueError(f"dt must be > 0; got {dt}")
     gravity = np.asarray(gravity, dtype=np.float64)
+    if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
+        raise ValueError(f"gravity must be 3 finite numbers (m/s^2); got {gravity.tolist()}")
     if store.count == 0:
         return 0
     store.v += gravity * dt  # phase 1
@@ -146,6 +148,8 @@ def resolve_contacts(store, table, gravity, dt: float, cache: ContactCache = Non
     if cache is not None:
         contacts[:, 15:19] = cache.lookup(keys)
     if len(contacts) == 0:
+        if cache is not None:
+            cache.clear()
         return 0
     body_rows = bodies.astype(dtype)
     work = np.zeros((len(contacts), WORK_COLUMNS), dtype=dtype)
