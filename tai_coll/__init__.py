@@ -12,6 +12,7 @@ Importing this package never touches a GPU or Vulkan; `tc.init()` (or first use)
 """
 
 from . import params
+from .bodies import Body, MassProperties, mass_properties
 from .errors import SimulationError
 from .geometry import Box, Capsule, Collider, Cylinder, Plane, Sphere, rotation_matrix
 from .geometry import HeightField, TriangleMesh
@@ -28,9 +29,10 @@ from .solvers.pairs import PairSettings, ParticleCollisions
 __version__ = "0.1.0"
 
 __all__ = [
-    "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PairSettings", "ParticleCollisions",
+    "Body", "Box", "Capsule", "Collider", "Cylinder", "ImpulseSolver", "Material", "PairSettings", "ParticleCollisions",
     "PenaltySolver", "Plane", "RepulsionField", "RuntimeInfo", "Scene", "SimulationError", "Solver", "Sphere",
     "collide", "collide_pair", "init", "params", "rotation_matrix",
     "HeightField", "TriangleMesh",
     "Implicit", "MeshSDF", "bake_mesh",
+    "MassProperties", "mass_properties",
 ]

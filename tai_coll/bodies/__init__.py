@@ -1,6 +1,7 @@
-"""Rigid bodies (docs/physics.md 2): closed collider shapes that move under contact forces.
-So far their mass properties, computed on the host."""
+"""Rigid bodies (docs/physics.md 6): closed collider shapes with mass that particles push and
+that push back, fall under gravity and collide with colliders and each other."""
 
+from .body import Body
 from .mass_properties import MassProperties, mass_properties
 
-__all__ = ["MassProperties", "mass_properties"]
+__all__ = ["Body", "MassProperties", "mass_properties"]

@@ -69,7 +69,23 @@ class ColliderTable:
         self.fshape = ti.Vector.ndarray(8, float, shape=capacity)
         self.fpool = ti.ndarray(float, shape=1)
         self.ipool = ti.ndarray(ti.i32, shape=1)
+        # rigid bodies (bodies/coupling.py fills these; every entry -1 while there are none)
+        self.body = ti.ndarray(ti.i32, shape=capacity)
+        self.body.fill(-1)
+        self.body_inv_mass = ti.ndarray(float, shape=capacity)
+        self.body_inv_inertia = ti.Matrix.ndarray(3, 3, float, shape=capacity)
+        self.body_com = ti.Vector.ndarray(3, float, shape=capacity)
+        if not hasattr(self, "ledger_body"):
+            self.set_ledger(ti.ndarray(ti.i32, shape=1), ti.Vector.ndarray(3, float, shape=1),
+                            ti.Vector.ndarray(3, float, shape=1), ti.Vector.ndarray(3, float, shape=1))
         self.capacity = capacity
+        self._args = None
+
+    def set_ledger(self, ledger_body, ledger_impulse, ledger_torque, body_total):
+        """The per-particle ledger of impulses given to bodies (bodies/coupling.py) that the
+        table's argument pack carries to the particle kernels."""
+        self.ledger_body, self.ledger_impulse, self.ledger_torque = ledger_body, ledger_impulse, ledger_torque
+        self.body_total = body_total
         self._args = None
 
     @property
@@ -81,7 +97,11 @@ class ColliderTable:
                                       material=self.material, center0=self.center0, rotation0=self.rotation0,
                                       center1=self.center1, rotation1=self.rotation1, velocity=self.velocity,
                                       angular_velocity=self.angular_velocity, ishape=self.ishape, fshape=self.fshape,
-                                      fpool=self.fpool, ipool=self.ipool)
+                                      fpool=self.fpool, ipool=self.ipool, body=self.body,
+                                      body_inv_mass=self.body_inv_mass, body_inv_inertia=self.body_inv_inertia,
+                                      body_com=self.body_com, ledger_body=self.ledger_body,
+                                      ledger_impulse=self.ledger_impulse, ledger_torque=self.ledger_torque,
+                                      body_total=self.body_total)
         return self._args
 
     def __len__(self):
@@ -124,7 +144,24 @@ class ColliderTable:
                 self._check_turn(e, dt)
             poses0.append(pose0)
             poses1.append(pose1)
+        self._poses = (poses0, poses1)
         self._upload_poses(poses0, poses1)
+
+    def replace_poses(self, rows: dict):
+        """Replace the substep's (start, end) poses of some entries, {id(entry): (pose0, pose1)}
+        (rigid bodies: their predicted motion, bodies/system.py), after `advance`."""
+        poses0, poses1 = (list(p) for p in self._poses)
+        for k, e in enumerate(self.entries):
+            if id(e) in rows:
+                poses0[k], poses1[k] = rows[id(e)]
+        self._poses = (poses0, poses1)
+        self._upload_poses(poses0, poses1)
+
+    def commit_poses(self):
+        """Every entry at its current pose, start and end (after a substep moved bodies)."""
+        poses = [(e.center, e.rotation) for e in self.entries]
+        self._poses = (poses, poses)
+        self._upload_poses(poses, poses)
 
     def _check_turn(self, entry: ColliderEntry, dt: float):
         """Warn once per collider that turns more than MAX_TURN in a substep."""
@@ -157,6 +194,7 @@ class ColliderTable:
         self.material.from_numpy(material)
         self._upload_shape_data()
         poses = [(e.center, e.rotation) for e in self.entries]
+        self._poses = (poses, poses)
         self._upload_poses(poses, poses)
 
     def _upload_shape_data(self):

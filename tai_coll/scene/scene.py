@@ -7,6 +7,9 @@ import dataclasses
 import numpy as np
 
 from .. import notices, runtime, validate
+from ..bodies.body import Body
+from ..bodies.mass_properties import mass_properties
+from ..bodies.system import BodyMotion, BodySystem
 from ..errors import SimulationError
 from ..geometry.colliders import Collider
 from ..materials import Material
@@ -66,6 +69,8 @@ class Scene:
         # what the solver is handed each call (solvers/base.py)
         self._world = World(particles=self._particles, colliders=self._colliders, gravity=gravity, domain=domain)
         self._pairs = None  # particle-particle collisions, off until enabled
+        self._bodies = BodySystem(self._colliders)  # rigid bodies (bodies/system.py)
+        self._body_handles = []
         self._time_base = 0.0  # time when dt last changed (substeps="auto")
         self._substep_count = 0  # substeps of dt since then
         self._substep_limit = "fixed" if not self._stepping.auto else "frame_dt"  # what set dt (stats)
@@ -98,6 +103,44 @@ class Scene:
         entry = self._colliders.add(collider, material, motion, self.time)
         entry.repulsion = repulsion
         return entry
+
+    def add_body(self, shape: Collider, *, mass=None, density=None, inertia=None, material: Material | None = None,
+                 velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0)) -> Body:
+        """Add a rigid body (docs/physics.md 6): a closed collider shape (Sphere, Box, Cylinder,
+        Capsule, a closed TriangleMesh or a MeshSDF of a closed mesh) with mass, placed where
+        the shape is. Its position is its centre of mass (a mesh's from its volume).
+        Exactly one of mass (kg) or density (kg/m^3), > 0. inertia: a 3x3 tensor (kg m^2)
+        about the centre of mass in the shape's local axes, symmetric positive definite
+        (default: the shape's at uniform density). material: its restitution and friction
+        against particles (as a collider's), colliders and other bodies. velocity (m/s) of
+        the centre of mass and angular_velocity (rad/s), world frame. Particles push it and
+        it pushes back (both solvers); it falls under gravity and collides with colliders
+        and other bodies. Returns the tc.Body."""
+        if not isinstance(shape, Collider):
+            raise TypeError(f"shape must be a closed tai_coll collider (Sphere, Box, Cylinder, Capsule, "
+                            f"TriangleMesh, MeshSDF); got {type(shape).__name__}")
+        props = mass_properties(shape, mass=mass, density=density, inertia=inertia)  # (refuses open shapes)
+        if material is None:
+            material = Material()
+        elif not isinstance(material, Material):
+            raise TypeError(f"material must be a tc.Material; got {type(material).__name__}")
+        velocity = validate.vector3("velocity", velocity)
+        angular_velocity = validate.vector3("angular_velocity", angular_velocity)
+        store = self._bodies.store
+        motion = BodyMotion(store, store.count)
+        entry = self._colliders.add(shape, material, None, self.time)
+        entry.motion = motion  # (the body's motion, once the store holds it)
+        store.add(entry, material, props, shape.rotation.copy(), velocity, angular_velocity)
+        entry.center, entry.rotation = store.shape_pose(motion.index)
+        handle = Body(self._bodies, motion.index)
+        self._body_handles.append(handle)
+        self._solver_checked = None
+        return handle
+
+    @property
+    def bodies(self) -> list[Body]:
+        """The rigid bodies, in the order they were added."""
+        return list(self._body_handles)
 
     def add_particles(self, *, positions, velocities=None, mass=1.0, radius=0.005) -> slice:
         """Add particles. positions, velocities: (N, 3) in m and m/s (velocities default 0);
@@ -176,18 +219,27 @@ class Scene:
             if self._stepping.auto:
                 self._choose_substeps()
             world = self._world
+            bodies = self._bodies if self._bodies.count else None
             if self._pairs is not None and self._particles.count:
                 # Particles interact: every substep is its own sequence of phases.
                 for _ in range(self.substeps):
                     if kinematic:
                         self._colliders.advance(self.time, self.dt)
+                    if bodies is not None:
+                        bodies.begin(world, self.dt)
                     self.solver.pair_substep(world, self._pairs, self.dt)
+                    if bodies is not None:
+                        bodies.end(world, self.dt)
                     self._substep_count += 1
             elif kinematic:
-                # Colliders move: new poses before every substep.
+                # Colliders move (bodies among them): new poses before every substep.
                 for _ in range(self.substeps):
                     self._colliders.advance(self.time, self.dt)
+                    if bodies is not None:
+                        bodies.begin(world, self.dt)
                     self.solver.advance(world, self.dt, 1)
+                    if bodies is not None:
+                        bodies.end(world, self.dt)
                     self._substep_count += 1
             else:
                 self.solver.advance(world, self.dt, self.substeps)

@@ -31,6 +31,7 @@ import taichi as ti
 
 from .. import validate
 from ..geometry import kinds
+from ..response.exchange import body_law
 from ..response.laws import WET_LAWS, respond
 from ..response.penalty import FIELD_NONE, apply_repulsion
 from ..response.repulsion import RepulsionField, pack
@@ -53,16 +54,27 @@ SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT,
 
 
 @ti.func
-def apply_law(c: ti.template(), ci, v: vec3, n: vec3, vs: vec3, restitution, wet_law: ti.template()):
-    """docs/physics.md 2 on the velocity relative to the collider's surface, with its material."""
-    m = c.material[ci]
-    v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
-    return vs + v_rel
+def apply_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, r, v: vec3, n: vec3, vs: vec3, restitution,
+              wet_law: ti.template()):
+    """docs/physics.md 2 on the velocity relative to the collider's surface, with its material;
+    against a rigid body, the two-body law (docs/physics.md 6.2) for particle i of inverse
+    mass inv_mass centred at x_ref (radius r), which books the body's share in the ledger.
+    Returns (the new velocity, whether the law changed it: a body this particle has already
+    pushed away, as it sees the body, needs nothing more)."""
+    v_new = v
+    changed = True
+    if c.body[ci] >= 0:
+        v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, wet_law)
+    else:
+        m = c.material[ci]
+        v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
+        v_new = vs + v_rel
+    return v_new, changed
 
 
 @ti.func
 def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(),
-                             x0: vec3, v0: vec3, x1: vec3, v1: vec3, r, m, slop, dt, last_resort: last_resort6,
+                             i, x0: vec3, v0: vec3, x1: vec3, v1: vec3, r, m, slop, dt, last_resort: last_resort6,
                              max_push_speed, wet_law: ti.template()):
     """Last resort (docs/physics.md 3.4, seed 001): a particle already inside a collider at
     time t keeps its penetration for this substep and is pushed out along the normal by
@@ -79,7 +91,7 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
         inside, depth, n, point, entered = start_penetration(c, groups, kinematic, ci, x0, v0, r, slop, dt)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
-            v1 = apply_law(c, ci, v1, n, vs, 0.0, wet_law)
+            v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law)
             field_kind = ti.cast(last_resort[1], ti.i32)
             if entered:
                 push += depth * n
@@ -94,8 +106,8 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
 
 
 @ti.func
-def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3,
-                   push: vec3, v0: vec3, x1: vec3, v1: vec3, r, slop, dt, elastic_passes, contact_passes,
+def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i, inv_mass,
+                   x0: vec3, push: vec3, v0: vec3, x1: vec3, v1: vec3, r, slop, dt, elastic_passes, contact_passes,
                    first_contact_elastic: ti.template(), failsafe: ti.template(), wet_law: ti.template()):
     """The simple, micro-collision and elastic-then-contact schemes as one loop.
 
@@ -148,12 +160,14 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
         restitution = c.material[ci][0]
         if elastic_left > 0:
             elastic_left -= 1
-            v_new = apply_law(c, ci, v_start, n, vs, restitution, wet_law)
+            v_new, changed = apply_law(c, ci, i, inv_mass, x0, r, v_start, n, vs, restitution, wet_law)
             dv = v_new - v_start
             v_start = v_new
             v1 += dv
             x1 += dt * dv
-            if ti.static(kinematic):
+            # (a body's pose for the substep is a prediction, redone with the velocity its
+            # particles leave it, docs/physics.md 6.1: the particle keeps x1 = x0 + dt v1)
+            if ti.static(kinematic) and c.body[ci] < 0:
                 # relative to the collider: the start carried with it rigidly (docs/physics.md
                 # 3.6), not along its surface velocity at the contact, which a turning
                 # collider's surface leaves behind (nothing changes for a still one)
@@ -166,7 +180,12 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
             elif contact_done > 0:
                 restitution = 0.0
             x1_before = x1
-            v1 = apply_law(c, ci, v1, n, vs, restitution, wet_law)
+            v1, changed = apply_law(c, ci, i, inv_mass, x0, r, v1, n, vs, restitution, wet_law)
+            if not changed:
+                # a body this particle has pushed away, as it sees the body (docs/physics.md
+                # 6.2); the table's pose for it is the prediction the body's new velocity redoes
+                resolved = True
+                break
             # Re-integrate relative to the collider (docs/physics.md 3.2 and 3.6). An inelastic
             # pass follows the relative path up to the contact, at fraction `when` of the
             # substep, and the new relative velocity after it: the particle ends on the surface
@@ -195,8 +214,8 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
 
 
 @ti.func
-def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3,
-                       v1: vec3, r, slop, dt, max_iterations, rest_speed, wet_law: ti.template()):
+def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i,
+                       inv_mass, x0: vec3, v1: vec3, r, slop, dt, max_iterations, rest_speed, wet_law: ti.template()):
     """Backing up time: move along the straight path to the first contact, apply the law
     there, go on for the remaining time. Approach speeds below rest_speed get e = 0, so a
     resting particle does not bounce on the velocity gravity gave it this substep."""
@@ -216,7 +235,11 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template()
         restitution = 0.0
         if -(v - vs).dot(n) > rest_speed:
             restitution = c.material[ci][0]
-        v = apply_law(c, ci, v, n, vs, restitution, wet_law)
+        v, changed = apply_law(c, ci, i, inv_mass, x, r, v, n, vs, restitution, wet_law)
+        if not changed:  # a body this particle has pushed away (as in resolve_passes)
+            x = x + (1.0 - t) * remaining * v
+            done = True
+            break
         remaining *= 1.0 - t
         last_vs = vs
     if not done:
@@ -326,24 +349,25 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
     time t against the colliders with the chosen scheme. Returns (x1, v1, clearance)."""
     r = p.radius[i]
+    inv_mass = 1.0 / p.mass[i]
     slop = slop_fraction * r
     clearance = -1.0
     push = vec3(0.0, 0.0, 0.0)
     if ti.static(scheme != SIMPLE):
-        x1, v1, push = repel_start_penetrations(p, c, groups, kinematic, x0, v0, x1, v1, r, p.mass[i], slop, dt,
+        x1, v1, push = repel_start_penetrations(p, c, groups, kinematic, i, x0, v0, x1, v1, r, p.mass[i], slop, dt,
                                                 last_resort, max_push_speed, wet_law)
     if ti.static(scheme == SIMPLE):
-        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, push, v0, x1, v1, r, slop, dt, 0, 1, True,
-                                           False, wet_law)
+        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt,
+                                           0, 1, True, False, wet_law)
     elif ti.static(scheme == MICRO):
-        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, push, v0, x1, v1, r, slop, dt, 0,
+        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt, 0,
                                            max_iterations, True, True, wet_law)
     elif ti.static(scheme == ELASTIC_CONTACT):
-        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, push, v0, x1, v1, r, slop, dt,
+        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt,
                                            elastic_iterations, max_iterations, False, True, wet_law)
     else:
-        x1, v1 = resolve_exact_time(p, c, groups, kinematic, x0 + push, v1, r, slop, dt, max_iterations, rest_speed,
-                                    wet_law)
+        x1, v1 = resolve_exact_time(p, c, groups, kinematic, i, inv_mass, x0 + push, v1, r, slop, dt,
+                                    max_iterations, rest_speed, wet_law)
     return x1, v1, clearance
 
 
@@ -390,7 +414,8 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
         else:
             if ti.static(contact_only):
                 r = p.radius[i]
-                x1, v1, clearance = resolve_passes(p, c, groups, kinematic, x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
+                x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, 1.0 / p.mass[i], x0,
+                                                   vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
                                                    slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
                 x_kept = keep_out(c, groups, kinematic, x0, x1, r)
                 if any(x_kept != x1):

@@ -32,6 +32,7 @@ from .. import notices, params, runtime, validate
 from ..geometry.colliders import Collider
 from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SPHERE_INERTIA, SYMPLECTIC_EULER, apply_repulsion,
                                 friction_force, spin_friction, spring_damper, spring_damper_implicit)
+from ..response.exchange import record_force
 from ..response.repulsion import pack
 from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, SpinArgs, Unused, unused, vec3
 from .base import Solver
@@ -87,7 +88,7 @@ def contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_rati
 
 
 @ti.func
-def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template(), x0: vec3, v0: vec3, v1: vec3,
+def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template(), i, x0: vec3, v0: vec3, v1: vec3,
                      w1: vec3, m, r, gravity: vec3, dt, k, d, integrator, spinning: ti.template()):
     """Every collider's forces on a particle at (x0, v0), colliders at their start pose.
     spinning: the particle spins (angular velocity w1): friction acts at the contact point
@@ -113,12 +114,27 @@ def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template
         if gap < 0.0 or (field_kind != FIELD_NONE and gap < field_range):
             # query: the surface velocity at the closest surface point (relative velocity)
             vs = surface_velocity(c, ci, carried(c, ci, x0 - phi * n))
+            v_before = v1
             if gap < 0.0:
                 # respond: docs/physics.md 4, the spring-damper at the point of entry, depth = r - phi
                 vn = (v0 - vs).dot(n)
+                an = gravity.dot(n)
+                mc = m  # the contact's mass: the particle's, or with a body the pair's reduced mass
+                if c.body[ci] >= 0:
+                    # docs/physics.md 6.3: a body falls too (its predicted velocity vs has this
+                    # substep's gravity), and moves under the force as well
+                    vn = (v0 + dt * gravity - vs).dot(n)
+                    an = 0.0
+                    arm = (x0 - c.body_com[ci]).cross(n)
+                    mc = 1.0 / (1.0 / m + c.body_inv_mass[ci] + arm.dot(c.body_inv_inertia[ci] @ arm))
                 fn = 0.0
                 if integrator == BACKWARD_EULER:
-                    fn = spring_damper_implicit(-gap, vn, gravity.dot(n), m, k, d, dt)
+                    fn = spring_damper_implicit(-gap, vn, an, mc, k, d, dt)
+                elif c.body[ci] >= 0:
+                    # the damper on the reduced mass, capped where its explicit step would turn
+                    # the relative normal velocity round (a body lighter than the particle
+                    # shortens the contact's characteristic time below the particle's own)
+                    fn = spring_damper(-gap, vn, k, ti.min(d, mc / dt))
                 else:
                     fn = spring_damper(-gap, vn, k, d)
                 v1 += (dt * fn / m) * n
@@ -129,12 +145,14 @@ def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template
                 else:
                     v_rel = v1 - vs
                     vt = v_rel - v_rel.dot(n) * n
-                    v1 += (dt / m) * friction_force(vt, fn, m, dt, row[STATIC_FRICTION], row[KINETIC_FRICTION],
+                    v1 += (dt / m) * friction_force(vt, fn, mc, dt, row[STATIC_FRICTION], row[KINETIC_FRICTION],
                                                     row[VISCOUS_FRICTION])
             if field_kind != FIELD_NONE:
                 # seed 002: the collider's repulsion field
                 v1 = vs + apply_repulsion(v1 - vs, n, gap, m, dt, field_kind, ti.cast(row[FIELD_PROFILE], ti.i32),
                                           row[FIELD_STRENGTH], row[FIELD_DECAY], field_range)
+            if c.body[ci] >= 0:  # a rigid body takes the opposite (docs/physics.md 6.3)
+                record_force(c, ci, i, x0, m * (v1 - v_before))
     return v1, w1, clearance
 
 
@@ -165,7 +183,7 @@ def penalty_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
                 w1 += (dt / (SPHERE_INERTIA * m * r * r)) * loads.torque[i]
         if clearance <= 0.0:
             k, d = contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio)
-            v1, w1, clearance = contact_velocity(c, groups, table, x0, v0, v1, w1, m, r, gravity, dt, k, d,
+            v1, w1, clearance = contact_velocity(c, groups, table, i, x0, v0, v1, w1, m, r, gravity, dt, k, d,
                                                  integrator, spinning)
         # integrate: symplectic Euler, x1 = x0 + dt v1
         x1 = x0 + dt * v1

@@ -1,0 +1,98 @@
+"""A scene's rigid bodies through one substep (docs/physics.md 6.1).
+
+    begin   gravity, the bodies' contacts with colliders and each other (rigid.py), then
+            each body's pose at the end of the substep predicted from its velocities: the
+            collider table holds the body as a moving collider from its pose now to there;
+    (the particle solver's substep: particles meet bodies like any moving collider, with the
+            two-body law, booking what they give each body, response/exchange.py)
+    end     the particles' impulses summed (coupling.py) and taken from each body's momentum
+            and angular momentum; the pose redone from the pose now with the new velocities,
+            x1 = x0 + dt v, R1 = exp(dt w) R0, and committed.
+
+A body's surface moves, as the particles see it, with the predicted motion; its real motion
+is what the particles left it. A body a particle cannot move (the particle is held by what
+it rests on) is stopped by it: the particle's share of the stop goes to the body alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import rigid
+from .coupling import Coupling
+from .store import BodyStore
+
+
+class BodyMotion:
+    """The `motion` of a body's collider entry: the table takes its poses and rates from the
+    body (scene/colliders.py calls `pose` and `rates` in ColliderTable.advance)."""
+
+    def __init__(self, store: BodyStore, index: int):
+        self.store = store
+        self.index = index
+
+    def pose(self, rest_center, rest_rotation, t):
+        return self.store.shape_pose(self.index)
+
+    def rates(self, pose0, pose1, dt):
+        b = self.index
+        store = self.store
+        w = store.omega(b)
+        # the velocity of the shape's origin at the end pose: the table's surface velocity
+        # v + w x (p - center1) is then the body's, v_com + w x (p - com1)
+        com1 = pose1[0] + pose1[1] @ store.com_local[b]
+        return store.v[b] + np.cross(w, pose1[0] - com1), w
+
+
+class BodySystem:
+    def __init__(self, table):
+        self.store = BodyStore()
+        self.table = table
+        self.coupling = Coupling(table)
+        self.contacts = 0  # body contacts found in the last substep (rigid.py)
+        self._x0 = None  # poses at the substep's start
+        self._R0 = None
+
+    @property
+    def count(self) -> int:
+        return self.store.count
+
+    def begin(self, world, dt: float):
+        """Before the particles' substep; the table's kinematic colliders are at this
+        substep's poses (ColliderTable.advance)."""
+        store = self.store
+        self.contacts = rigid.resolve_contacts(store, self.table, np.asarray(world.gravity, dtype=np.float64), dt)
+        self._x0, self._R0 = store.x.copy(), store.R.copy()
+        predicted = [store.advanced_pose(b, dt) for b in range(store.count)]
+        self._set_table_poses(predicted, dt)
+        self.coupling.ensure(world.particles.capacity, store.count)
+        self.coupling.upload(store)
+
+    def end(self, world, dt: float):
+        """After the particles' substep: their impulses, then the committed poses."""
+        store = self.store
+        impulses, torques = self.coupling.collect(store, world.particles.count)
+        for b in range(store.count):
+            store.v[b] = store.v[b] - impulses[b] / store.mass[b]
+            store.L[b] = store.L[b] - torques[b]
+        final = [store.advanced_pose(b, dt) for b in range(store.count)]
+        for b, (x1, R1) in enumerate(final):
+            store.x[b], store.R[b] = x1, R1
+            entry = store.entries[b]
+            entry.center, entry.rotation = store.shape_pose(b)
+            entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates((entry.center, entry.rotation),
+                                                                                 (entry.center, entry.rotation), dt)
+        self.table.commit_poses()
+
+    def _set_table_poses(self, predicted, dt):
+        """Each body's row of the table: from its pose now to the predicted one."""
+        store = self.store
+        rows = {}
+        for b, (x1, R1) in enumerate(predicted):
+            entry = store.entries[b]
+            pose0 = store.shape_pose(b)
+            pose1 = store.shape_pose(b, x1, R1)
+            entry.center, entry.rotation = pose0
+            entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates(pose0, pose1, dt)
+            rows[id(entry)] = (pose0, pose1)
+        self.table.replace_poses(rows)

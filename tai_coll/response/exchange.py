@@ -1,0 +1,106 @@
+"""A particle's contact with a rigid body: the two-body law and the ledger of what bodies are
+given (docs/physics.md 6.2).
+
+A body is a collider with finite mass. Its contact with a particle takes the collider law
+(docs/physics.md 2) on the relative velocity at the contact, then shares the change between
+the two by their inverse masses: along d, the direction of the change the law wants, the
+impulse J = |dv| / (1/m_p + 1/m_b + (a x d) . I_b^-1 (a x d)) d goes to the particle and -J
+to the body, a the lever from the body's centre of mass to the particle's centre (the line
+of action passes through the particle's centre, so angular momentum is exchanged exactly).
+Seen by one particle, the body has the mass and inertia its table row gives, which are the
+body's divided by the number of particles touching it (mass splitting, docs/physics.md 6.2):
+many particles striking a body at once, each resolved in parallel against the body's
+velocity at the start of the substep, then give it the mean of what each alone would have,
+instead of their sum.
+
+Kernels resolve particles in parallel, so nobody adds to a body during the substep: each
+particle writes what it gave into its own two ledger slots (`c.ledger_*`, two bodies per
+particle and substep), and `bodies/coupling.py` sums the ledger in a fixed order afterwards,
+so the sums are the same bit for bit in every run on the CPU. A third body touched by one
+particle in one substep goes to `c.body_total` by atomic adds (order-dependent round-off).
+The particle's later passes in the substep see the body as its own impulses left it
+(`seen_velocity`).
+"""
+
+import taichi as ti
+
+from .laws import respond
+
+vec3 = ti.math.vec3
+
+
+@ti.func
+def ledger_slot(c: ti.template(), i, b):
+    """Particle i's ledger slot for body b (2 i or 2 i + 1): the one it holds, or a free one
+    it claims; -1 when both hold other bodies."""
+    slot = -1
+    for s in ti.static(range(2)):
+        if slot < 0:
+            k = 2 * i + s
+            if c.ledger_body[k] == b:
+                slot = k
+            elif c.ledger_body[k] < 0:
+                c.ledger_body[k] = b
+                c.ledger_impulse[k] = vec3(0.0, 0.0, 0.0)
+                c.ledger_torque[k] = vec3(0.0, 0.0, 0.0)
+                slot = k
+    return slot
+
+
+@ti.func
+def seen_velocity(c: ti.template(), ci, slot, vs: vec3, point: vec3) -> vec3:
+    """The body's surface velocity at `point` as particle (ledger slot) `slot` has left it:
+    vs, the table's, less what the particle's impulses so far this substep took from it."""
+    out = vs
+    if slot >= 0:
+        out = vs - c.body_inv_mass[ci] * c.ledger_impulse[slot] - \
+            (c.body_inv_inertia[ci] @ c.ledger_torque[slot]).cross(point - c.body_com[ci])
+    return out
+
+
+@ti.func
+def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3, restitution,
+             wet_law: ti.template()):
+    """docs/physics.md 6.2: particle i (inverse mass inv_mass, 0 for a particle held by its
+    supports; centre x_ref) at velocity v against body collider ci's surface at `point`
+    (outward normal n, table surface velocity vs). Returns (the particle's new velocity,
+    whether the law changed anything)."""
+    b = c.body[ci]
+    slot = ledger_slot(c, i, b)
+    seen = seen_velocity(c, ci, slot, vs, point)
+    m = c.material[ci]
+    v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
+    delta = seen + v_rel - v
+    size = delta.norm()
+    changed = False
+    if size > 0.0:
+        changed = True
+        d = delta / size
+        arm = x_ref - c.body_com[ci]
+        ad = arm.cross(d)
+        weight = inv_mass + c.body_inv_mass[ci] + ad.dot(c.body_inv_inertia[ci] @ ad)
+        impulse = (size / weight) * d
+        v += inv_mass * impulse
+        torque = arm.cross(impulse)
+        if slot >= 0:
+            c.ledger_impulse[slot] += impulse
+            c.ledger_torque[slot] += torque
+        else:
+            ti.atomic_add(c.body_total[2 * b], impulse)
+            ti.atomic_add(c.body_total[2 * b + 1], torque)
+    return v, changed
+
+
+@ti.func
+def record_force(c: ti.template(), ci, i, x_ref: vec3, impulse: vec3):
+    """The penalty solver's share: `impulse` (N s, force times dt) given to particle i by
+    body collider ci this substep; the body gets the opposite (docs/physics.md 6.3)."""
+    b = c.body[ci]
+    slot = ledger_slot(c, i, b)
+    torque = (x_ref - c.body_com[ci]).cross(impulse)
+    if slot >= 0:
+        c.ledger_impulse[slot] += impulse
+        c.ledger_torque[slot] += torque
+    else:
+        ti.atomic_add(c.body_total[2 * b], impulse)
+        ti.atomic_add(c.body_total[2 * b + 1], torque)
