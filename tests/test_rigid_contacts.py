@@ -354,3 +354,27 @@ def test_bodies_spawned_into_each_other_come_apart_without_being_thrown():
     rig.run(0.5)
     assert rig.store.x[1, 0] - rig.store.x[0, 0] > 0.2 - 2e-3  # apart, to the position correction's slop
     assert np.abs(rig.store.v).max() < 1e-6  # by positions: no velocity added
+
+
+# ---------------------------------------------------------------- through the scene
+def test_a_scene_body_bounces_to_e_squared_h_and_a_tilted_box_settles_flat():
+    scene = tc.Scene(dt=DT, substeps=10)
+    scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.0, friction=0.5))
+    ball = scene.add_body(tc.Sphere(center=(0.0, 1.0, 0.0), radius=0.1), mass=1.0,
+                          material=tc.Material(restitution=0.8))
+    tilt = rotation_matrix((1, 0, 0), np.radians(25.0)) @ rotation_matrix((0, 0, 1), np.radians(25.0))
+    box = scene.add_body(tc.Box(center=(1.0, 0.45, 0.0), half_extents=(0.1, 0.05, 0.075), rotation=tilt), mass=2.0,
+                         material=tc.Material(restitution=0.3, friction=0.5))
+    heights = []
+    for _ in range(54):  # 0.9 s: one bounce and its apex
+        scene.step()
+        heights.append(ball.position[1] - 0.1)
+    bounce = int(np.argmin(heights))
+    assert max(heights[bounce:]) == pytest.approx(0.8 ** 2 * 0.9, rel=0.02)
+    scene.step(frames=150)
+    up = box.rotation.T @ np.array([0.0, 1.0, 0.0])
+    assert np.abs(up).max() == pytest.approx(1.0, abs=1e-4)
+    assert np.linalg.norm(box.velocity) < 1e-3 and np.linalg.norm(box.angular_velocity) * 0.1 < 1e-3
+    corners = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)]) * (0.1, 0.05, 0.075)
+    lowest = (corners @ box.rotation.T + box.position)[:, 1].min()
+    assert abs(lowest) < 2e-3
