@@ -19,9 +19,9 @@ from ..response.exchange import BODY_MASK, HELD_BIT
 from ..solvers.detection import BOUND_SLOT, collider_sdf
 from ..types import ACTIVE, ARRAY, ColliderArgs, ParticleArgs
 
-# Rows of the collect kernel's output per body: impulse and torque from free particles, the
-# same from held ones (response/exchange.py `held`), and the counts of each (x, y).
-OUT_ROWS = 5
+# Rows of the collect kernel's output per body: impulse and torque the free particles got
+# from it, and the counts (x: free particles, y: held ones, response/exchange.py `held`).
+OUT_ROWS = 3
 
 
 class Coupling:
@@ -30,7 +30,6 @@ class Coupling:
         self.capacity = 0  # particles the ledger has slots for
         self.body_rows = 0  # bodies body_total has rows for
         self.counts = np.zeros(0)  # particles that touched each body in the last substep
-        self.shares = np.zeros(0)  # the mass splitting of this substep (upload)
         self._out = None
         self._near = None
 
@@ -47,9 +46,12 @@ class Coupling:
             body_total.fill(0.0)
             self.table.set_ledger(ledger_body, ledger_impulse, ledger_torque, body_total)
             self._out = ti.Vector.ndarray(3, float, shape=OUT_ROWS * self.body_rows)
+            # the held contacts, listed in ledger order: body, point, normal (times 1 + depth)
+            self._held_body = ti.ndarray(ti.i32, shape=2 * self.capacity + 1)
+            self._held_point = ti.Vector.ndarray(3, float, shape=2 * self.capacity)
+            self._held_normal = ti.Vector.ndarray(3, float, shape=2 * self.capacity)
         if len(self.counts) < bodies:
             self.counts = np.concatenate([self.counts, np.zeros(bodies - len(self.counts))])
-            self.shares = np.ones(bodies)
 
     def count_near(self, world, dt: float):
         """How many particles may touch each body in the coming substep: within a radius of
@@ -79,7 +81,6 @@ class Coupling:
         for b in range(store.count):
             k = index[id(store.entries[b])]
             share = max(1.0, float(self.counts[b]), 0.0 if near is None else float(near[b]))
-            self.shares[b] = share
             body[k] = b
             inv_mass[k] = share / store.mass[b]
             inv_inertia[k] = share * store.inv_inertia_world(b)
@@ -90,28 +91,56 @@ class Coupling:
         table.body_com.from_numpy(com)
 
     def collect(self, store, particle_count: int):
-        """Sum and clear the ledger: (impulses (B, 3) and torques (B, 3) the particles got
-        from each body this substep, float64); the counts are kept for the next upload.
-
-        Held particles (shock propagation, docs/physics.md 6.2) each stopped the body as
-        though it were one of `share` particles; the body takes the mean over those that
-        touched it, their sum times share / (their count): their supports take the
-        momentum, so nothing is conserved there that this would break."""
+        """Sum and clear the ledger: (impulses (B, 3) and torques (B, 3) the free particles
+        got from each body this substep, float64; the held contacts (body (H,), point (H, 3),
+        unit normal (H, 3) out of the body, depth (H,) in m), in ledger order); the counts
+        are kept for the next upload."""
         B = store.count
         serial = runtime.info().arch == "cpu"
         _collect(self.table.ledger_body, self.table.ledger_impulse, self.table.ledger_torque, self.table.body_total,
-                 particle_count, B, serial, self._out)
-        out = self._out.to_numpy().astype(np.float64)[:OUT_ROWS * B].reshape(B, OUT_ROWS, 3) if B else \
-            np.zeros((0, OUT_ROWS, 3))
-        held = out[:, 4, 1]
-        scale = np.where(held > 0, self.shares[:B] / np.maximum(held, 1.0), 0.0)[:, None]
-        self.counts[:B] = out[:, 4, 0] + held
-        return out[:, 0] + scale * out[:, 2], out[:, 1] + scale * out[:, 3]
+                 particle_count, B, serial, self._out, self._held_body, self._held_point, self._held_normal)
+        out = self._out.to_numpy().astype(np.float64)[:OUT_ROWS * B].reshape(B, OUT_ROWS, 3)
+        self.counts[:B] = out[:, 2, 0] + out[:, 2, 1]
+        count = int(self._held_body[2 * self.capacity])
+        held = ()
+        if count:
+            normal = self._held_normal.to_numpy()[:count].astype(np.float64)
+            size = np.linalg.norm(normal, axis=1)
+            held = (self._held_body.to_numpy()[:count], self._held_point.to_numpy()[:count].astype(np.float64),
+                    normal / size[:, None], size - 1.0)
+        return out[:, 0], out[:, 1], held
+
+
+@ti.func
+def _collect_slot(ledger_body: ti.template(), ledger_impulse: ti.template(), ledger_torque: ti.template(), k,
+                  out: ti.template(), held_body: ti.template(), held_point: ti.template(),
+                  held_normal: ti.template(), serial: ti.template()):
+    entry = ledger_body[k]
+    if entry >= 0:
+        b = entry & BODY_MASK
+        if (entry & HELD_BIT) != 0:
+            last = held_body.shape[0] - 1  # (the list's length lives in its last element)
+            h = 0
+            if ti.static(serial):
+                h = held_body[last]
+                held_body[last] = h + 1
+            else:
+                h = ti.atomic_add(held_body[last], 1)
+            held_body[h] = b
+            held_point[h] = ledger_impulse[k]
+            held_normal[h] = ledger_torque[k]
+            out[OUT_ROWS * b + 2][1] += 1.0
+        else:
+            out[OUT_ROWS * b] += ledger_impulse[k]
+            out[OUT_ROWS * b + 1] += ledger_torque[k]
+            out[OUT_ROWS * b + 2][0] += 1.0
+        ledger_body[k] = -1
 
 
 @ti.kernel
 def _collect(ledger_body: ARRAY, ledger_impulse: ARRAY, ledger_torque: ARRAY, body_total: ARRAY, count: ti.i32,
-             bodies: ti.i32, serial: ti.template(), out: ARRAY):
+             bodies: ti.i32, serial: ti.template(), out: ARRAY, held_body: ARRAY, held_point: ARRAY,
+             held_normal: ARRAY):
     for b in range(bodies):
         for row in ti.static(range(OUT_ROWS)):
             out[OUT_ROWS * b + row] = ti.math.vec3(0.0, 0.0, 0.0)
@@ -119,30 +148,17 @@ def _collect(ledger_body: ARRAY, ledger_impulse: ARRAY, ledger_torque: ARRAY, bo
         out[OUT_ROWS * b + 1] = body_total[2 * b + 1]
         body_total[2 * b] = ti.math.vec3(0.0, 0.0, 0.0)
         body_total[2 * b + 1] = ti.math.vec3(0.0, 0.0, 0.0)
+    held_body[held_body.shape[0] - 1] = 0
     if ti.static(serial):
-        # one pass in particle order: the same sums, bit for bit, in every run
+        # one pass in ledger (particle) order: the same sums and list, bit for bit, every run
         ti.loop_config(serialize=True)
         for k in range(2 * count):
-            entry = ledger_body[k]
-            if entry >= 0:
-                b = entry & BODY_MASK
-                held = (entry & HELD_BIT) != 0
-                row = OUT_ROWS * b + ti.select(held, 2, 0)
-                out[row] += ledger_impulse[k]
-                out[row + 1] += ledger_torque[k]
-                out[OUT_ROWS * b + 4][ti.select(held, 1, 0)] += 1.0
-                ledger_body[k] = -1
+            _collect_slot(ledger_body, ledger_impulse, ledger_torque, k, out, held_body, held_point, held_normal,
+                          True)
     else:
         for k in range(2 * count):
-            entry = ledger_body[k]
-            if entry >= 0:
-                b = entry & BODY_MASK
-                held = (entry & HELD_BIT) != 0
-                row = OUT_ROWS * b + ti.select(held, 2, 0)
-                ti.atomic_add(out[row], ledger_impulse[k])
-                ti.atomic_add(out[row + 1], ledger_torque[k])
-                ti.atomic_add(out[OUT_ROWS * b + 4][ti.select(held, 1, 0)], 1.0)
-                ledger_body[k] = -1
+            _collect_slot(ledger_body, ledger_impulse, ledger_torque, k, out, held_body, held_point, held_normal,
+                          False)
 
 
 @ti.kernel

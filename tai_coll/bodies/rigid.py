@@ -151,17 +151,45 @@ def resolve_contacts(store, table, gravity, dt: float, cache: ContactCache = Non
         if cache is not None:
             cache.clear()
         return 0
-    body_rows = bodies.astype(dtype)
-    work = np.zeros((len(contacts), WORK_COLUMNS), dtype=dtype)
-    totals = np.zeros((store.count, TOTAL_COLUMNS), dtype=dtype)
-    _solve(contacts=contacts.astype(dtype), pairs=pairs, bodies=body_rows, dt=dt, bounce_speed=bounce_speed,
-           iterations=VELOCITY_ITERATIONS, position_iterations=POSITION_ITERATIONS, correction=CORRECTION,
-           slop=SLOP, max_push=MAX_PUSH_SPEED, work=work, totals=totals)
-    _apply(store, totals.astype(np.float64), dt)
+    work = _solve_rows(store, contacts, pairs, dt, bounce_speed)
     if cache is not None:
         cache.keys = keys
         cache.impulses = np.column_stack([work[:, 10], work[:, 11:12] * work[:, 0:3] + work[:, 12:13] * work[:, 3:6]])
     return len(contacts)
+
+
+def resolve_held(store, held, dt: float) -> int:
+    """Shock propagation for bodies lying on particles (docs/physics.md 6.2): the contacts
+    `held` (coupling.Coupling.collect: body, point, the body's outward normal there, depth)
+    of particles held by what they rest on, as immovable contacts of the bodies, solved like
+    their other contacts (no restitution: the impact was exchanged with the particles while
+    they were free): the body stops on them all at once, penetration goes by positions.
+    Returns the number of contacts."""
+    if not len(held):
+        return 0
+    body, point, normal, depth = held
+    friction = np.array([m.friction for m in store.materials])[body]
+    count = len(body)
+    contacts = np.zeros((count, CONTACT_COLUMNS))
+    contacts[:, 0:3] = -normal  # (pointing from the particle into the body)
+    contacts[:, 3:6] = point - store.x[body]
+    contacts[:, 12] = -depth
+    contacts[:, 14] = friction
+    pairs = np.ascontiguousarray(np.column_stack([body, np.full(count, -1)]), dtype=np.int32)
+    _solve_rows(store, contacts, pairs, dt, 0.0)
+    return count
+
+
+def _solve_rows(store, contacts, pairs, dt, bounce_speed):
+    """Phases 5 and 6 over given contact rows, into the store; returns the work rows."""
+    dtype = runtime.float_dtype()
+    work = np.zeros((len(contacts), WORK_COLUMNS), dtype=dtype)
+    totals = np.zeros((store.count, TOTAL_COLUMNS), dtype=dtype)
+    _solve(contacts=np.ascontiguousarray(contacts, dtype=dtype), pairs=pairs, bodies=_body_rows(store).astype(dtype),
+           dt=dt, bounce_speed=bounce_speed, iterations=VELOCITY_ITERATIONS, position_iterations=POSITION_ITERATIONS,
+           correction=CORRECTION, slop=SLOP, max_push=MAX_PUSH_SPEED, work=work, totals=totals)
+    _apply(store, totals.astype(np.float64), dt)
+    return work
 
 
 # ---------------------------------------------------------------------------- host phases

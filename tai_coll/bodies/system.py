@@ -52,8 +52,9 @@ class BodySystem:
         self.table = table
         self.coupling = Coupling(table)
         self.contacts = 0  # body contacts found in the last substep (rigid.py)
-        self._x0 = None  # poses at the substep's start
-        self._R0 = None
+        self.held = 0  # contacts with particles held by their supports in the last substep
+        self._held = ()  # those contacts (coupling.Coupling.collect)
+        self.contact_cache = rigid.ContactCache()  # warm starting of the bodies' contacts
 
     @property
     def count(self) -> int:
@@ -63,8 +64,14 @@ class BodySystem:
         """Before the particles' substep; the table's kinematic colliders are at this
         substep's poses (ColliderTable.advance)."""
         store = self.store
-        self.contacts = rigid.resolve_contacts(store, self.table, np.asarray(world.gravity, dtype=np.float64), dt)
-        self._x0, self._R0 = store.x.copy(), store.R.copy()
+        self.contacts = rigid.resolve_contacts(store, self.table, np.asarray(world.gravity, dtype=np.float64), dt,
+                                               self.contact_cache)
+        if len(self._held):
+            # The last substep's held particles hold the body before its motion is predicted:
+            # free particles near them then see a body at rest, not one falling at g dt that
+            # the held ones stop afterwards (which kicked them every substep).
+            body, point, normal, depth = self._held
+            rigid.resolve_held(store, (body, point, normal, np.zeros_like(depth)), dt)
         predicted = [store.advanced_pose(b, dt) for b in range(store.count)]
         self._set_table_poses(predicted, dt)
         self.coupling.ensure(world.particles.capacity, store.count)
@@ -74,10 +81,12 @@ class BodySystem:
     def end(self, world, dt: float):
         """After the particles' substep: their impulses, then the committed poses."""
         store = self.store
-        impulses, torques = self.coupling.collect(store, world.particles.count)
+        impulses, torques, held = self.coupling.collect(store, world.particles.count)
         for b in range(store.count):
             store.v[b] = store.v[b] - impulses[b] / store.mass[b]
             store.L[b] = store.L[b] - torques[b]
+        self.held = rigid.resolve_held(store, held, dt)
+        self._held = held
         final = [store.advanced_pose(b, dt) for b in range(store.count)]
         for b, (x1, R1) in enumerate(final):
             store.x[b], store.R[b] = x1, R1

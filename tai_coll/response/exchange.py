@@ -40,14 +40,14 @@ vec3 = ti.math.vec3
 
 @ti.func
 def ledger_slot(c: ti.template(), i, b):
-    """Particle i's ledger slot for body b (2 i or 2 i + 1): the one it holds, or a free one
-    it claims; -1 when both hold other bodies."""
+    """Particle i's ledger slot for body b (2 i or 2 i + 1; b may carry HELD_BIT, for a held
+    contact's slot): the one it holds, or a free one it claims; -1 when both hold others."""
     slot = -1
     for s in ti.static(range(2)):
         if slot < 0:
             k = 2 * i + s
             entry = c.ledger_body[k]
-            if entry >= 0 and (entry & BODY_MASK) == b:
+            if entry == b:
                 slot = k
             elif entry < 0:
                 c.ledger_body[k] = b
@@ -82,24 +82,40 @@ def held(c: ti.template(), i, n: vec3) -> bool:
 
 @ti.func
 def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3, restitution,
-             push_speed, wet_law: ti.template()):
+             depth, wet_law: ti.template()):
     """docs/physics.md 6.2: particle i (inverse mass inv_mass; centre x_ref) at velocity v
     against body collider ci's surface at `point` (outward normal n, table surface velocity
-    vs). push_speed: a particle found inside the body that is held (`held`) pushes the body
-    out at this speed. Returns (the particle's new velocity, whether the law changed
-    anything)."""
+    vs; depth: how deep the particle is inside, where known, else 0). Returns (the
+    particle's new velocity, whether the law changed anything)."""
     b = c.body[ci]
-    slot = ledger_slot(c, i, b)
-    seen = seen_velocity(c, ci, slot, vs, point)
+    changed = False
     if held(c, i, n):
-        # The body takes the contact's whole change. Held, the particle moves neither away
-        # from the body (its supports stop it) nor towards it (that motion is the passes'
-        # doing, pushed up out of its neighbours, not a blow): the body is stopped on it, not
-        # thrown; one found inside pushes it out at push_speed.
-        inv_mass = 0.0
-        v = v - (v.dot(n) + push_speed) * n
+        # Held by its supports, the particle does not move the body: it books the contact
+        # instead of an impulse (point, and the normal scaled by 1 + depth), and
+        # bodies/coupling.py hands each body's held contacts to the rigid solver, which stops
+        # the body on them all at once (shock propagation). For the particle the body is a
+        # moving collider like any other, met inelastically (its motion towards the body is
+        # the passes' doing, pushed up out of its neighbours, not a blow).
+        # (Its own slot, apart from what it gave the body while free earlier in the substep.)
+        m = c.material[ci]
+        v_rel, dvn = respond(v - vs, n, 0.0, m[1], m[2], wet_law)
+        changed = dvn > 0.0
+        v = vs + v_rel
+        slot = ledger_slot(c, i, b | HELD_BIT)
         if slot >= 0:
-            c.ledger_body[slot] |= HELD_BIT
+            c.ledger_impulse[slot] = point
+            c.ledger_torque[slot] = (1.0 + depth) * n
+    else:
+        v, changed = _exchange(c, ci, b, ledger_slot(c, i, b), inv_mass, x_ref, v, n, vs, point, restitution,
+                               wet_law)
+    return v, changed
+
+
+@ti.func
+def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3,
+              restitution, wet_law: ti.template()):
+    """body_law for a particle free to move: the impulse shared by inverse masses."""
+    seen = seen_velocity(c, ci, slot, vs, point)
     m = c.material[ci]
     v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
     delta = seen + v_rel - v

@@ -55,17 +55,16 @@ SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT,
 
 @ti.func
 def apply_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, r, v: vec3, n: vec3, vs: vec3, restitution,
-              wet_law: ti.template(), push_speed=0.0):
+              wet_law: ti.template(), depth=0.0):
     """docs/physics.md 2 on the velocity relative to the collider's surface, with its material;
     against a rigid body, the two-body law (docs/physics.md 6.2) for particle i of inverse
     mass inv_mass centred at x_ref (radius r), which books the body's share in the ledger.
     Returns (the new velocity, whether the law changed it: a body this particle has already
-    pushed away, as it sees the body, needs nothing more). push_speed: exchange.body_law's."""
+    pushed away, as it sees the body, needs nothing more). depth: exchange.body_law's."""
     v_new = v
     changed = True
     if c.body[ci] >= 0:
-        v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, push_speed,
-                                  wet_law)
+        v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, depth, wet_law)
     else:
         m = c.material[ci]
         v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
@@ -92,11 +91,10 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
         inside, depth, n, point, entered = start_penetration(c, groups, kinematic, ci, x0, v0, r, slop, dt)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
-            push_speed = ti.min(last_resort[0] * depth / dt, max_push_speed)
-            v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, push_speed)
+            v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, depth)
             field_kind = ti.cast(last_resort[1], ti.i32)
             if c.body[ci] >= 0 and held(c, i, n):
-                pass  # held by its supports: the body was pushed out instead (exchange.body_law)
+                pass  # held by its supports: the body is pushed out instead (exchange.body_law)
             elif entered:
                 push += depth * n
             elif field_kind == FIELD_NONE:
@@ -424,6 +422,14 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                 x_kept = keep_out(c, groups, kinematic, x0, x1, r)
                 if any(x_kept != x1):
                     clearance = -1.0
+                    # A position kept out of a collider keeps no velocity into it either: the
+                    # contact passes leave motion within the slop alone, and a particle held
+                    # against a ceiling (a body resting on a pile, docs/physics.md 6.2) would
+                    # otherwise carry the push of its neighbours on as velocity.
+                    out = x_kept - x1
+                    into = v1.dot(out)
+                    if into < 0.0:
+                        v1 -= (into / out.norm_sqr()) * out
                 x1 = x_kept
             else:
                 x1, v1, clearance = resolve_particle(p, c, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
