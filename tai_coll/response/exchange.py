@@ -69,14 +69,18 @@ def seen_velocity(c: ti.template(), ci, slot, vs: vec3, point: vec3) -> vec3:
 
 
 @ti.func
-def held(c: ti.template(), i, n: vec3) -> bool:
-    """Whether particle i, touching a body whose outward normal there is n, lies under it and
-    is held by what it rests on (its support level, solvers/pairs/shock.py): shock
-    propagation (docs/physics.md 6.2) makes it immovable against the body."""
+def held(c: ti.template(), i, n: vec3, v: vec3, vs: vec3) -> bool:
+    """Whether particle i (velocity v), touching a body whose outward normal there is n and
+    surface velocity vs, lies under it, is held by what it rests on (its support level,
+    solvers/pairs/shock.py) and meets it slower than a resting contact: shock propagation
+    (docs/physics.md 6.2) makes it immovable against the body. A faster blow is exchanged
+    (the body pushes sand aside, a crate landing kicks it up). support_up holds the up
+    direction times that resting speed."""
     out = False
     up = c.support_up[0]
-    if up.norm_sqr() > 0.0:  # (zero: off, and `support` may be a placeholder)
-        out = c.support[i] < NO_SUPPORT and n.dot(up) < -SUPPORT_COS
+    rest = up.norm()
+    if rest > 0.0:  # (zero: off, and `support` may be a placeholder)
+        out = c.support[i] < NO_SUPPORT and n.dot(up) < -SUPPORT_COS * rest and (v - vs).dot(n) > -rest
     return out
 
 
@@ -89,7 +93,7 @@ def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, v
     particle's new velocity, whether the law changed anything)."""
     b = c.body[ci]
     changed = False
-    if held(c, i, n):
+    if held(c, i, n, v, vs):
         # Held by its supports, the particle does not move the body: it books the contact
         # instead of an impulse (point, and the normal scaled by 1 + depth), and
         # bodies/coupling.py hands each body's held contacts to the rigid solver, which stops

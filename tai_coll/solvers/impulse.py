@@ -93,7 +93,7 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
             vs = surface_velocity(c, ci, point)
             v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, depth)
             field_kind = ti.cast(last_resort[1], ti.i32)
-            if c.body[ci] >= 0 and held(c, i, n):
+            if c.body[ci] >= 0 and held(c, i, n, v1, vs):
                 pass  # held by its supports: the body is pushed out instead (exchange.body_law)
             elif entered:
                 push += depth * n

@@ -49,6 +49,11 @@ from ...types import unused
 from ..penalty import Forces, ForcesAndTorques
 from . import dem, gauss_seidel, jacobi, shock
 from .overlap import overlap
+
+#: A body resting on particles held by their supports stops on them (docs/physics.md 6.2)
+#: where it meets them slower than this many times |g| dt (a resting contact closes at
+#: |g| dt a substep); faster, the blow is shared with them by mass.
+HELD_SPEED = 4.0
 from .placement import DEM_CEILING, DEM_SHRINK, SHRINK, cap_push_velocity, grant_allowances, separate, shrink_allowances
 from .predict import predict_kernel
 from .sleeping import update_rest
@@ -196,12 +201,14 @@ class ParticleCollisions:
         contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max))
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
         # A body lying on particles held by what they rest on is stopped by them in this
-        # substep's collider passes (shock propagation, docs/physics.md 6.2).
+        # substep's collider passes (shock propagation, docs/physics.md 6.2), where it meets
+        # them slower than HELD_SPEED |g| dt.
         table = world.colliders
         support = settings.method == "gauss-seidel" and any(world.gravity) and table.has_bodies
         if support:
-            table.set_support(self._support_levels(world, particles.x),
-                              -np.asarray(world.gravity) / np.linalg.norm(world.gravity))
+            g = float(np.linalg.norm(world.gravity))
+            up = -np.asarray(world.gravity) / g
+            table.set_support(self._support_levels(world, particles.x), up * HELD_SPEED * g * dt)
         # 3. elastic pass on v(t)
         self.v_start.copy_from(particles.v)
         if sleep:
