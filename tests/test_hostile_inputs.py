@@ -162,6 +162,7 @@ def test_the_limits_of_init_are_taichis(no_kernels):
 
 SCENE_CALLS = {
     "add_collider": lambda s: s.add_collider(tc.Plane()),
+    "add_body": lambda s: s.add_body(tc.Sphere(radius=0.1), mass=1.0),
     "add_particles": lambda s: s.add_particles(positions=[[0.0, 0.0, 0.0]]),
     "enable_particle_collisions": lambda s: s.enable_particle_collisions(),
     "particle_overlap": lambda s: s.particle_overlap(),

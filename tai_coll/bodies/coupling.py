@@ -67,9 +67,11 @@ class Coupling:
         _count_near(particles.args, table.args, table.groups, dt, self._near)
         return self._near.to_numpy()
 
-    def upload(self, store, near=None):
+    def upload(self, store, near=None, up=None):
         """Each body's row of the collider table for the coming substep (docs/physics.md 6.2);
-        near: this substep's counts of particles near each body (count_near)."""
+        near: this substep's counts of particles near each body (count_near); up: the up
+        direction (against gravity; None without gravity) for bodies resting on what holds
+        them (store.supported)."""
         table = self.table
         dtype = runtime.float_dtype()
         n = len(table.entries)
@@ -77,6 +79,7 @@ class Coupling:
         inv_mass = np.zeros(table.capacity, dtype=dtype)
         inv_inertia = np.zeros((table.capacity, 3, 3), dtype=dtype)
         com = np.zeros((table.capacity, 3), dtype=dtype)
+        held_up = np.zeros((table.capacity, 3), dtype=dtype)
         index = {id(e): k for k, e in enumerate(table.entries[:n])}
         for b in range(store.count):
             k = index[id(store.entries[b])]
@@ -85,10 +88,13 @@ class Coupling:
             inv_mass[k] = share / store.mass[b]
             inv_inertia[k] = share * store.inv_inertia_world(b)
             com[k] = store.x[b]
+            if up is not None and store.supported[b]:
+                held_up[k] = up
         table.body.from_numpy(body)
         table.body_inv_mass.from_numpy(inv_mass)
         table.body_inv_inertia.from_numpy(inv_inertia)
         table.body_com.from_numpy(com)
+        table.body_up.from_numpy(held_up)
 
     def collect(self, store, particle_count: int):
         """Sum and clear the ledger: (impulses (B, 3) and torques (B, 3) the free particles

@@ -59,6 +59,9 @@ BOUNCE_FACTOR = 2.0
 BOUNCE_FLOOR = 1e-6
 
 INFINITY = 1e30
+#: A contact holds a body up when its normal is within acos(SUPPORT_COS) of up (as
+#: solvers/pairs/shock.py's supports).
+SUPPORT_COS = 0.25
 # Columns of the packed arrays the two kernels take (one row per sample, slot, contact, body).
 SAMPLE_COLUMNS = 7   # position (3), radius, velocity (3)
 FOUND_COLUMNS = 7    # gap, normal (3), surface velocity (3)
@@ -152,10 +155,29 @@ def resolve_contacts(store, table, gravity, dt: float, cache: ContactCache = Non
             cache.clear()
         return 0
     work = _solve_rows(store, contacts, pairs, dt, bounce_speed)
+    if np.any(gravity):
+        store.supported = supported_bodies(store.count, contacts[:, 0:3], pairs, work[:, 10], -gravity)
     if cache is not None:
         cache.keys = keys
         cache.impulses = np.column_stack([work[:, 10], work[:, 11:12] * work[:, 0:3] + work[:, 12:13] * work[:, 3:6]])
     return len(contacts)
+
+
+def supported_bodies(count, normals, pairs, normal_impulses, up) -> np.ndarray:
+    """Which bodies rest on something that holds them (docs/physics.md 6.2): a contact pushing
+    up (normal within acos(SUPPORT_COS) of `up`) with a collider, or with a body that rests
+    so, found level by level. Particles lying on such a body meet it as immovable."""
+    up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
+    pushing = (normal_impulses > 0.0) & (normals.astype(np.float64) @ up > SUPPORT_COS)
+    supported = np.zeros(count, dtype=bool)
+    for _ in range(count):
+        below_held = (pairs[:, 1] < 0) | supported[np.maximum(pairs[:, 1], 0)]
+        now = supported.copy()
+        now[pairs[pushing & below_held, 0]] = True
+        if np.array_equal(now, supported):
+            break
+        supported = now
+    return supported
 
 
 def resolve_held(store, held, dt: float) -> int:

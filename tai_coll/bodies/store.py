@@ -30,6 +30,7 @@ class BodyStore:
         self.inertia = np.zeros((0, 3, 3))  # body frame, about the centre of mass
         self.inv_inertia = np.zeros((0, 3, 3))
         self.com_local = np.zeros((0, 3))  # centre of mass in the shape's local frame
+        self.supported = np.zeros(0, dtype=bool)  # resting on what holds it (rigid.supported_bodies)
         self.entries = []  # the collider table's ColliderEntry of each body
         self.materials = []
 
@@ -47,6 +48,7 @@ class BodyStore:
         self.inv_inertia = np.concatenate([self.inv_inertia, np.linalg.inv(inertia)[None]])
         self.com_local = np.vstack([self.com_local, np.asarray(props.center_of_mass, dtype=np.float64)[None]])
         self.L = np.vstack([self.L, np.zeros((1, 3))])
+        self.supported = np.append(self.supported, False)
         self.entries.append(entry)
         self.materials.append(material)
         self.count += 1

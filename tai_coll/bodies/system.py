@@ -54,7 +54,10 @@ class BodySystem:
         self.contacts = 0  # body contacts found in the last substep (rigid.py)
         self.held = 0  # contacts with particles held by their supports in the last substep
         self._held = ()  # those contacts (coupling.Coupling.collect)
-        self.contact_cache = rigid.ContactCache()  # warm starting of the bodies' contacts
+        # warm starting of the bodies' contacts, for the solve before the particles' passes
+        # and for the one after them (each from its own last solution)
+        self.contact_cache = rigid.ContactCache()
+        self.after_cache = rigid.ContactCache()
 
     @property
     def count(self) -> int:
@@ -76,10 +79,12 @@ class BodySystem:
         self._set_table_poses(predicted, dt)
         self.coupling.ensure(world.particles.capacity, store.count)
         near = self.coupling.count_near(world, dt) if world.particles.count else None
-        self.coupling.upload(store, near)
+        g = np.asarray(world.gravity, dtype=np.float64)
+        self.coupling.upload(store, near, -g / np.linalg.norm(g) if np.any(g) else None)
 
     def end(self, world, dt: float):
-        """After the particles' substep: their impulses, then the committed poses."""
+        """After the particles' substep: their impulses (and held contacts), the bodies'
+        contacts again, then the committed poses."""
         store = self.store
         impulses, torques, held = self.coupling.collect(store, world.particles.count)
         for b in range(store.count):
@@ -87,6 +92,12 @@ class BodySystem:
             store.L[b] = store.L[b] - torques[b]
         self.held = rigid.resolve_held(store, held, dt)
         self._held = held
+        if len(held) or np.any(impulses) or np.any(torques):
+            # The particles pushed: the bodies' contacts once more, so that what presses a body
+            # into a floor (grains lying on it) is held there, not carried into the next pose.
+            rigid.resolve_contacts(store, self.table, np.zeros(3), dt, self.after_cache)
+        else:
+            self.after_cache.clear()
         final = [store.advanced_pose(b, dt) for b in range(store.count)]
         for b, (x1, R1) in enumerate(final):
             store.x[b], store.R[b] = x1, R1

@@ -119,7 +119,15 @@ def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, v
 def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3,
               restitution, wet_law: ti.template()):
     """body_law for a particle free to move: the impulse shared by inverse masses."""
-    seen = seen_velocity(c, ci, slot, vs, point)
+    seen = vs
+    inv_body = 0.0
+    inv_inertia = ti.Matrix.zero(float, 3, 3)
+    if n.dot(c.body_up[ci]) <= SUPPORT_COS:
+        seen = seen_velocity(c, ci, slot, vs, point)
+        inv_body = c.body_inv_mass[ci]
+        inv_inertia = c.body_inv_inertia[ci]
+    # (else lying on a body that rests on what holds it, shock propagation, docs/physics.md
+    # 6.2: the body does not give way; what the particle gives it, its supports take)
     m = c.material[ci]
     v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
     delta = seen + v_rel - v
@@ -130,7 +138,7 @@ def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: 
         d = delta / size
         arm = x_ref - c.body_com[ci]
         ad = arm.cross(d)
-        weight = inv_mass + c.body_inv_mass[ci] + ad.dot(c.body_inv_inertia[ci] @ ad)
+        weight = inv_mass + inv_body + ad.dot(inv_inertia @ ad)
         impulse = (size / weight) * d
         v += inv_mass * impulse
         torque = arm.cross(impulse)

@@ -75,6 +75,7 @@ class ColliderTable:
         self.body_inv_mass = ti.ndarray(float, shape=capacity)
         self.body_inv_inertia = ti.Matrix.ndarray(3, 3, float, shape=capacity)
         self.body_com = ti.Vector.ndarray(3, float, shape=capacity)
+        self.body_up = ti.Vector.ndarray(3, float, shape=capacity)
         if not hasattr(self, "support"):
             self.support = ti.ndarray(ti.i32, shape=1)
             self.support_up = ti.Vector.ndarray(3, float, shape=1)
@@ -116,7 +117,7 @@ class ColliderTable:
                                       angular_velocity=self.angular_velocity, ishape=self.ishape, fshape=self.fshape,
                                       fpool=self.fpool, ipool=self.ipool, body=self.body,
                                       body_inv_mass=self.body_inv_mass, body_inv_inertia=self.body_inv_inertia,
-                                      body_com=self.body_com, ledger_body=self.ledger_body,
+                                      body_com=self.body_com, body_up=self.body_up, ledger_body=self.ledger_body,
                                       ledger_impulse=self.ledger_impulse, ledger_torque=self.ledger_torque,
                                       body_total=self.body_total, support=self.support,
                                       support_up=self.support_up)
