@@ -1,4 +1,4 @@
-"""A ball rolls down a ramp and ploughs through a patch of sand on it (docs/physics.md 6:
+"""A ball rolls down a ramp and ploughs through a patch of sand on it (docs/physics.md 7:
 rigid bodies and particles, two-way; 6.4: a body rolls on a collider with friction).
 
 A 20 degree ramp (friction 0.6, steeper than nothing the sand's friction angle holds: the
@@ -37,6 +37,13 @@ def sand_positions() -> np.ndarray:
                 shift = 0.5 * step * (layer % 2)
                 rows.append((s + shift) * DOWN + height * NORMAL + (w + shift) * ACROSS)
     return np.array(rows)
+
+
+def render_settings() -> dict:
+    """For `tai-coll run`: across the ramp, from above the sand."""
+    from tai_coll.render import Camera
+
+    return {"camera": Camera(position=(0.6, 0.5, 1.0), look_at=(0.6, -0.2, 0.0), fov=45.0)}
 
 
 def scene() -> tc.Scene:

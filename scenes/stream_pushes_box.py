@@ -1,4 +1,4 @@
-"""A jet of sand pushes a box across the floor (docs/physics.md 6: rigid bodies and
+"""A jet of sand pushes a box across the floor (docs/physics.md 7: rigid bodies and
 particles, two-way: each grain's impulse on the box is the opposite of the box's on it).
 
 A box (10 cm cube, 300 kg/m^3, 0.3 kg) stands on a floor (friction 0.4); a jet of 1,200
@@ -29,6 +29,13 @@ def jet_positions(rng) -> np.ndarray:
     y = HALF + 0.02 + fall + rng.uniform(-0.01, 0.01, COUNT)
     z = rng.uniform(-0.01, 0.01, COUNT)
     return np.column_stack([x, y, z])
+
+
+def render_settings() -> dict:
+    """For `tai-coll run`: from the side, the jet coming in from the left."""
+    from tai_coll.render import Camera
+
+    return {"camera": Camera(position=(0.2, 0.5, 1.6), look_at=(0.2, 0.05, 0.0), fov=45.0)}
 
 
 def scene(seed: int = 0) -> tc.Scene:

@@ -332,6 +332,11 @@ def summary(scene, frames, wall, timing, renderer, frame_dir, video_path, fps) -
         lines.append(f"  frames: {frame_dir / FRAME_PATTERN.format(0)} .. {FRAME_PATTERN.format(frames - 1)}")
     if video_path is not None:
         lines.append(f"  video: {video_path} ({frames} frames at {fps:g} fps)")
+    for body in scene.bodies:
+        p, v, w = body.position, body.velocity, body.angular_velocity
+        lines.append(f"  body {body.index} ({type(body.shape).__name__}, {body.mass:.4g} kg): at "
+                     f"({p[0]:.4g}, {p[1]:.4g}, {p[2]:.4g}) m, velocity ({v[0]:.3g}, {v[1]:.3g}, {v[2]:.3g}) m/s, "
+                     f"spin ({w[0]:.3g}, {w[1]:.3g}, {w[2]:.3g}) rad/s")
     from .types import STAT_NAMES
 
     stats = scene.stats()

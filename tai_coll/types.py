@@ -74,14 +74,14 @@ ShapeArgs = ti.types.argpack(ishape=ti.types.ndarray(dtype=ti.types.vector(8, ti
 #: the surface motion (velocity, angular_velocity) and the shape data of ShapeArgs.
 #: Rigid bodies (bodies/coupling.py) are colliders too; per collider: `body` (the body's index,
 #: -1 for a static or kinematic collider), `body_inv_mass` (1/kg) and `body_inv_inertia`
-#: (world, 1/(kg m^2)) as each particle contact sees them (mass splitting, docs/physics.md 6.2),
+#: (world, 1/(kg m^2)) as each particle contact sees them (mass splitting, docs/physics.md 7.2),
 #: `body_com` (its centre of mass at the substep's start), `body_up` (up, for a body resting on
 #: what holds it, which particles lying on it meet as immovable; else zero); and the ledger of what particles
 #: gave bodies this substep: two slots per particle (`ledger_body`: body or -1,
 #: `ledger_impulse`: N s, `ledger_torque`: N m s about the body's centre of mass), and
 #: `body_total` (2 rows per body, impulse and torque) for a third body touched at once;
 #: `support` (per particle, shock.py's support levels) and `support_up` (one vector: up, or
-#: zero while particles held by their supports do not stop bodies, docs/physics.md 6.2).
+#: zero while particles held by their supports do not stop bodies, docs/physics.md 7.2).
 ColliderArgs = ti.types.argpack(count=ti.i32, kind=ARRAY, params=ARRAY, material=ARRAY, center0=ARRAY,
                                 rotation0=ARRAY, center1=ARRAY, rotation1=ARRAY, velocity=ARRAY,
                                 angular_velocity=ARRAY, ishape=ARRAY, fshape=ARRAY, fpool=ARRAY, ipool=ARRAY,

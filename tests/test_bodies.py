@@ -1,4 +1,4 @@
-"""Rigid bodies in a scene (docs/physics.md 6): the API, two-way coupling with particles in both
+"""Rigid bodies in a scene (docs/physics.md 7): the API, two-way coupling with particles in both
 solvers by closed forms and conservation laws, bodies on colliders through Scene, determinism.
 
 The session runs in f64 (conftest.py): conservation is checked to round-off."""

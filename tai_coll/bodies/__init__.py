@@ -1,4 +1,4 @@
-"""Rigid bodies (docs/physics.md 6): closed collider shapes with mass that particles push and
+"""Rigid bodies (docs/physics.md 7): closed collider shapes with mass that particles push and
 that push back, fall under gravity and collide with colliders and each other."""
 
 from .body import Body

@@ -1,4 +1,4 @@
-"""`tc.Body`: the handle `Scene.add_body` returns (docs/physics.md 6)."""
+"""`tc.Body`: the handle `Scene.add_body` returns (docs/physics.md 7)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The particles' side of two-way coupling (docs/physics.md 6.2 and 6.3): what the particle
+"""The particles' side of two-way coupling (docs/physics.md 7.2 and 7.3): what the particle
 kernels see of each body, and the sum of what they gave the bodies in a substep.
 
 Before a substep's particle passes, `upload` writes each body's row of the collider table
@@ -68,7 +68,7 @@ class Coupling:
         return self._near.to_numpy()
 
     def upload(self, store, near=None, up=None):
-        """Each body's row of the collider table for the coming substep (docs/physics.md 6.2);
+        """Each body's row of the collider table for the coming substep (docs/physics.md 7.2);
         near: this substep's counts of particles near each body (count_near); up: the up
         direction (against gravity; None without gravity) for bodies resting on what holds
         them (store.supported)."""

@@ -1,6 +1,6 @@
 """Contacts of rigid bodies with the colliders of a scene and with each other: sequential
 impulses with restitution and Coulomb friction, speculative contacts, and position
-correction by pseudo-velocities (docs/physics.md 2, "Two movable bodies"; 3, moving
+correction by pseudo-velocities (docs/physics.md 7.4; 2, "Two movable bodies"; 3, moving
 colliders).
 
 `resolve_contacts` runs once at the start of every substep, with each body's collider-table
@@ -164,7 +164,7 @@ def resolve_contacts(store, table, gravity, dt: float, cache: ContactCache = Non
 
 
 def supported_bodies(count, normals, pairs, normal_impulses, up) -> np.ndarray:
-    """Which bodies rest on something that holds them (docs/physics.md 6.2): a contact pushing
+    """Which bodies rest on something that holds them (docs/physics.md 7.2): a contact pushing
     up (normal within acos(SUPPORT_COS) of `up`) with a collider, or with a body that rests
     so, found level by level. Particles lying on such a body meet it as immovable."""
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
@@ -181,7 +181,7 @@ def supported_bodies(count, normals, pairs, normal_impulses, up) -> np.ndarray:
 
 
 def resolve_held(store, held, dt: float) -> int:
-    """Shock propagation for bodies lying on particles (docs/physics.md 6.2): the contacts
+    """Shock propagation for bodies lying on particles (docs/physics.md 7.2): the contacts
     `held` (coupling.Coupling.collect: body, point, the body's outward normal there, depth)
     of particles held by what they rest on, as immovable contacts of the bodies, solved like
     their other contacts (no restitution: the impact was exchanged with the particles while

@@ -1,5 +1,5 @@
 """Surface samples of a rigid body's shape: the points whose contacts the rigid-body solver
-finds (bodies/rigid.py; docs/physics.md 2, "Two movable bodies").
+finds (bodies/rigid.py; docs/physics.md 7.4).
 
 A body touches another collider where one of its samples does: a sample is a ball (a point
 with a radius) that lies on the body's surface, and its contact with the other collider is

@@ -1,4 +1,4 @@
-"""A scene's rigid bodies through one substep (docs/physics.md 6.1).
+"""A scene's rigid bodies through one substep (docs/physics.md 7.1).
 
     begin   gravity, the bodies' contacts with colliders and each other (rigid.py), then
             each body's pose at the end of the substep predicted from its velocities: the
@@ -20,7 +20,7 @@ import numpy as np
 
 from . import rigid
 from .coupling import Coupling
-from .store import BodyStore
+from .store import BodyStore, cross, orthonormal
 
 
 class BodyMotion:
@@ -43,7 +43,7 @@ class BodyMotion:
         # the velocity of the shape's origin at the end pose: the table's surface velocity
         # v + w x (p - center1) is then the body's, v_com + w x (p - com1)
         com1 = pose1[0] + pose1[1] @ store.com_local[b]
-        return store.v[b] + np.cross(w, pose1[0] - com1), w
+        return store.v[b] + cross(w, pose1[0] - com1), w
 
 
 class BodySystem:
@@ -98,14 +98,15 @@ class BodySystem:
             rigid.resolve_contacts(store, self.table, np.zeros(3), dt, self.after_cache)
         else:
             self.after_cache.clear()
-        final = [store.advanced_pose(b, dt) for b in range(store.count)]
-        for b, (x1, R1) in enumerate(final):
-            store.x[b], store.R[b] = x1, R1
+        for b in range(store.count):
+            x1, R1 = store.advanced_pose(b, dt)
+            store.x[b], store.R[b] = x1, orthonormal(R1)
             entry = store.entries[b]
             entry.center, entry.rotation = store.shape_pose(b)
             entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates((entry.center, entry.rotation),
                                                                                  (entry.center, entry.rotation), dt)
-        self.table.commit_poses()
+        # (the table keeps the substep's poses until the next substep's `advance`, or the
+        # scene's commit_poses at the end of the frame)
 
     def _set_table_poses(self, predicted, dt):
         """Each body's row of the table: from its pose now to the predicted one."""

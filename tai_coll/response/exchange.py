@@ -1,5 +1,5 @@
 """A particle's contact with a rigid body: the two-body law and the ledger of what bodies are
-given (docs/physics.md 6.2).
+given (docs/physics.md 7.2).
 
 A body is a collider with finite mass. Its contact with a particle takes the collider law
 (docs/physics.md 2) on the relative velocity at the contact, then shares the change between
@@ -8,7 +8,7 @@ impulse J = |dv| / (1/m_p + 1/m_b + (a x d) . I_b^-1 (a x d)) d goes to the part
 to the body, a the lever from the body's centre of mass to the particle's centre (the line
 of action passes through the particle's centre, so angular momentum is exchanged exactly).
 Seen by one particle, the body has the mass and inertia its table row gives, which are the
-body's divided by the number of particles touching it (mass splitting, docs/physics.md 6.2):
+body's divided by the number of particles touching it (mass splitting, docs/physics.md 7.2):
 many particles striking a body at once, each resolved in parallel against the body's
 velocity at the start of the substep, then give it the mean of what each alone would have,
 instead of their sum.
@@ -73,7 +73,7 @@ def held(c: ti.template(), i, n: vec3, v: vec3, vs: vec3) -> bool:
     """Whether particle i (velocity v), touching a body whose outward normal there is n and
     surface velocity vs, lies under it, is held by what it rests on (its support level,
     solvers/pairs/shock.py) and meets it slower than a resting contact: shock propagation
-    (docs/physics.md 6.2) makes it immovable against the body. A faster blow is exchanged
+    (docs/physics.md 7.2) makes it immovable against the body. A faster blow is exchanged
     (the body pushes sand aside, a crate landing kicks it up). support_up holds the up
     direction times that resting speed."""
     out = False
@@ -87,7 +87,7 @@ def held(c: ti.template(), i, n: vec3, v: vec3, vs: vec3) -> bool:
 @ti.func
 def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3, restitution,
              depth, wet_law: ti.template()):
-    """docs/physics.md 6.2: particle i (inverse mass inv_mass; centre x_ref) at velocity v
+    """docs/physics.md 7.2: particle i (inverse mass inv_mass; centre x_ref) at velocity v
     against body collider ci's surface at `point` (outward normal n, table surface velocity
     vs; depth: how deep the particle is inside, where known, else 0). Returns (the
     particle's new velocity, whether the law changed anything)."""
@@ -154,7 +154,7 @@ def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: 
 @ti.func
 def record_force(c: ti.template(), ci, i, x_ref: vec3, impulse: vec3):
     """The penalty solver's share: `impulse` (N s, force times dt) given to particle i by
-    body collider ci this substep; the body gets the opposite (docs/physics.md 6.3)."""
+    body collider ci this substep; the body gets the opposite (docs/physics.md 7.3)."""
     b = c.body[ci]
     slot = ledger_slot(c, i, b)
     torque = (x_ref - c.body_com[ci]).cross(impulse)

@@ -88,7 +88,7 @@ class ColliderTable:
 
     def set_support(self, levels, up):
         """Particles' support levels (shock.py) and the up direction: against a body above it,
-        a particle held by its supports is immovable (docs/physics.md 6.2); up None: off."""
+        a particle held by its supports is immovable (docs/physics.md 7.2); up None: off."""
         if levels is not None and levels is not self.support:
             self.support = levels
             self._args = None

@@ -106,7 +106,7 @@ class Scene:
 
     def add_body(self, shape: Collider, *, mass=None, density=None, inertia=None, material: Material | None = None,
                  velocity=(0.0, 0.0, 0.0), angular_velocity=(0.0, 0.0, 0.0)) -> Body:
-        """Add a rigid body (docs/physics.md 6): a closed collider shape (Sphere, Box, Cylinder,
+        """Add a rigid body (docs/physics.md 7): a closed collider shape (Sphere, Box, Cylinder,
         Capsule, a closed TriangleMesh or a MeshSDF of a closed mesh) with mass, placed where
         the shape is. Its position is its centre of mass (a mesh's from its volume).
         Exactly one of mass (kg) or density (kg/m^3), > 0. inertia: a 3x3 tensor (kg m^2)
@@ -244,6 +244,8 @@ class Scene:
             else:
                 self.solver.advance(world, self.dt, self.substeps)
                 self._substep_count += self.substeps
+            if bodies is not None:
+                self._colliders.commit_poses()  # the table at the bodies' poses between frames
             self._check_health()
 
     def _check_solver(self):
@@ -292,6 +294,8 @@ class Scene:
         self.substeps, self._substep_limit = n, limit
 
     def _check_health(self):
+        if self._bodies.count:
+            self._check_bodies()
         fresh = self._particles.collect_stats()
         totals = self._particles.totals
         if self._watch is not None:
@@ -320,6 +324,20 @@ class Scene:
         if fresh["left_domain"]:
             notices.warn(f"{fresh['left_domain']} particle(s) left the domain by t = {self.time:.6g} s and were "
                           f"frozen ({totals['left_domain']} in all); see Scene.particle_status()", RuntimeWarning)
+
+    def _check_bodies(self):
+        """A body whose state turned NaN or inf stops the run (SimulationError): unlike a
+        particle it cannot be frozen alone, since particles and other bodies touch it."""
+        store = self._bodies.store
+        bad = [b for b in range(store.count)
+               if not (np.all(np.isfinite(store.x[b])) and np.all(np.isfinite(store.v[b]))
+                       and np.all(np.isfinite(store.L[b])) and np.all(np.isfinite(store.R[b])))]
+        if bad:
+            raise SimulationError(
+                f"body {bad[0]} ({type(store.entries[bad[0]].shape).__name__}) turned NaN or inf at "
+                f"t = {self.time:.6g} s{' (and ' + str(len(bad) - 1) + ' more)' if len(bad) > 1 else ''}. "
+                f"Check its mass and inertia against the particles' and its velocities; a smaller dt "
+                f"(now {self.dt:g} s) may help.")
 
     def _check_crushed(self):
         """DEM pairs: warn once when particles overlap by more than CRUSHED_OVERLAP of the
@@ -428,8 +446,14 @@ class Scene:
         frozen: non_finite, left_domain), then the latest frame's substeps, its dt (s) and
         what chose them (substep_limit): "fixed" (the scene's substeps and dt), or with
         substeps="auto" "stability" (the stiffest contact), "cfl" (the travel limit),
-        "frame_dt" (one substep, or dt's cap), "max_substeps" (capped)."""
-        return dict(self._particles.totals, substeps=self.substeps, dt=self.dt, substep_limit=self._substep_limit)
+        "frame_dt" (one substep, or dt's cap), "max_substeps" (capped). With rigid bodies:
+        body_contacts (the bodies' contacts with colliders and each other found in the last
+        substep, speculative ones included) and held_contacts (with particles held by their
+        supports, docs/physics.md 7.2)."""
+        out = dict(self._particles.totals, substeps=self.substeps, dt=self.dt, substep_limit=self._substep_limit)
+        if self._bodies.count:
+            out.update(body_contacts=self._bodies.contacts, held_contacts=self._bodies.held)
+        return out
 
     def set_velocities(self, velocities) -> None:
         v = validate.points("velocities", velocities)
@@ -456,5 +480,6 @@ class Scene:
         self._particles.write("x", x)
 
     def __repr__(self):
-        return (f"Scene({self.num_particles} particles, {len(self._colliders)} colliders, dt={self.dt:g}, "
+        bodies = f"{self._bodies.count} bodies, " if self._bodies.count else ""
+        return (f"Scene({self.num_particles} particles, {bodies}{len(self._colliders)} colliders, dt={self.dt:g}, "
                 f"substeps={self.substeps}, solver={self.solver!r}, t={self.time:.4g} s)")

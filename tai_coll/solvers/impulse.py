@@ -54,16 +54,20 @@ SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT,
 
 
 @ti.func
-def apply_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, r, v: vec3, n: vec3, vs: vec3, restitution,
-              wet_law: ti.template(), depth=0.0):
+def apply_law(c: ti.template(), kinematic: ti.template(), ci, i, inv_mass, x_ref: vec3, r, v: vec3, n: vec3,
+              vs: vec3, restitution, wet_law: ti.template(), depth=0.0):
     """docs/physics.md 2 on the velocity relative to the collider's surface, with its material;
-    against a rigid body, the two-body law (docs/physics.md 6.2) for particle i of inverse
+    against a rigid body, the two-body law (docs/physics.md 7.2) for particle i of inverse
     mass inv_mass centred at x_ref (radius r), which books the body's share in the ledger.
     Returns (the new velocity, whether the law changed it: a body this particle has already
-    pushed away, as it sees the body, needs nothing more). depth: exchange.body_law's."""
+    pushed away, as it sees the body, needs nothing more). depth: exchange.body_law's.
+    Bodies move (`kinematic`): tables without moving colliders compile none of this in."""
     v_new = v
     changed = True
-    if c.body[ci] >= 0:
+    body = False
+    if ti.static(kinematic):
+        body = c.body[ci] >= 0
+    if body:
         v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, depth, wet_law)
     else:
         m = c.material[ci]
@@ -91,10 +95,14 @@ def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.temp
         inside, depth, n, point, entered = start_penetration(c, groups, kinematic, ci, x0, v0, r, slop, dt)
         if inside and depth > 0.0:
             vs = surface_velocity(c, ci, point)
-            v1, changed = apply_law(c, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, depth)
+            held_here = False  # (held by its supports: the body is pushed out instead, exchange.body_law)
+            if ti.static(kinematic):
+                if c.body[ci] >= 0:
+                    held_here = held(c, i, n, v1, vs)
+            v1, changed = apply_law(c, kinematic, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, depth)
             field_kind = ti.cast(last_resort[1], ti.i32)
-            if c.body[ci] >= 0 and held(c, i, n, v1, vs):
-                pass  # held by its supports: the body is pushed out instead (exchange.body_law)
+            if held_here:
+                pass
             elif entered:
                 push += depth * n
             elif field_kind == FIELD_NONE:
@@ -162,13 +170,13 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
         restitution = c.material[ci][0]
         if elastic_left > 0:
             elastic_left -= 1
-            v_new, changed = apply_law(c, ci, i, inv_mass, x0, r, v_start, n, vs, restitution, wet_law)
+            v_new, changed = apply_law(c, kinematic, ci, i, inv_mass, x0, r, v_start, n, vs, restitution, wet_law)
             dv = v_new - v_start
             v_start = v_new
             v1 += dv
             x1 += dt * dv
             # (a body's pose for the substep is a prediction, redone with the velocity its
-            # particles leave it, docs/physics.md 6.1: the particle keeps x1 = x0 + dt v1)
+            # particles leave it, docs/physics.md 7.1: the particle keeps x1 = x0 + dt v1)
             if ti.static(kinematic) and c.body[ci] < 0:
                 # relative to the collider: the start carried with it rigidly (docs/physics.md
                 # 3.6), not along its surface velocity at the contact, which a turning
@@ -182,7 +190,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
             elif contact_done > 0:
                 restitution = 0.0
             x1_before = x1
-            v1, changed = apply_law(c, ci, i, inv_mass, x0, r, v1, n, vs, restitution, wet_law)
+            v1, changed = apply_law(c, kinematic, ci, i, inv_mass, x0, r, v1, n, vs, restitution, wet_law)
             if not changed:
                 # a body this particle has pushed away, as it sees the body (docs/physics.md
                 # 6.2); the table's pose for it is the prediction the body's new velocity redoes
@@ -237,7 +245,7 @@ def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template()
         restitution = 0.0
         if -(v - vs).dot(n) > rest_speed:
             restitution = c.material[ci][0]
-        v, changed = apply_law(c, ci, i, inv_mass, x, r, v, n, vs, restitution, wet_law)
+        v, changed = apply_law(c, kinematic, ci, i, inv_mass, x, r, v, n, vs, restitution, wet_law)
         if not changed:  # a body this particle has pushed away (as in resolve_passes)
             x = x + (1.0 - t) * remaining * v
             done = True
@@ -424,7 +432,7 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                     clearance = -1.0
                     # A position kept out of a collider keeps no velocity into it either: the
                     # contact passes leave motion within the slop alone, and a particle held
-                    # against a ceiling (a body resting on a pile, docs/physics.md 6.2) would
+                    # against a ceiling (a body resting on a pile, docs/physics.md 7.2) would
                     # otherwise carry the push of its neighbours on as velocity.
                     out = x_kept - x1
                     into = v1.dot(out)

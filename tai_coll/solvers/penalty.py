@@ -121,7 +121,7 @@ def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template
                 an = gravity.dot(n)
                 mc = m  # the contact's mass: the particle's, or with a body the pair's reduced mass
                 if c.body[ci] >= 0:
-                    # docs/physics.md 6.3: a body falls too (its predicted velocity vs has this
+                    # docs/physics.md 7.3: a body falls too (its predicted velocity vs has this
                     # substep's gravity), and moves under the force as well
                     vn = (v0 + dt * gravity - vs).dot(n)
                     an = 0.0
@@ -151,7 +151,7 @@ def contact_velocity(c: ti.template(), groups: ti.template(), table: ti.template
                 # seed 002: the collider's repulsion field
                 v1 = vs + apply_repulsion(v1 - vs, n, gap, m, dt, field_kind, ti.cast(row[FIELD_PROFILE], ti.i32),
                                           row[FIELD_STRENGTH], row[FIELD_DECAY], field_range)
-            if c.body[ci] >= 0:  # a rigid body takes the opposite (docs/physics.md 6.3)
+            if c.body[ci] >= 0:  # a rigid body takes the opposite (docs/physics.md 7.3)
                 record_force(c, ci, i, x0, m * (v1 - v_before))
     return v1, w1, clearance
 

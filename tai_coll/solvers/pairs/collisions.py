@@ -50,7 +50,7 @@ from ..penalty import Forces, ForcesAndTorques
 from . import dem, gauss_seidel, jacobi, shock
 from .overlap import overlap
 
-#: A body resting on particles held by their supports stops on them (docs/physics.md 6.2)
+#: A body resting on particles held by their supports stops on them (docs/physics.md 7.2)
 #: where it meets them slower than this many times |g| dt (a resting contact closes at
 #: |g| dt a substep); faster, the blow is shared with them by mass.
 HELD_SPEED = 4.0
@@ -201,7 +201,7 @@ class ParticleCollisions:
         contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max))
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
         # A body lying on particles held by what they rest on is stopped by them in this
-        # substep's collider passes (shock propagation, docs/physics.md 6.2), where it meets
+        # substep's collider passes (shock propagation, docs/physics.md 7.2), where it meets
         # them slower than HELD_SPEED |g| dt.
         table = world.colliders
         support = settings.method == "gauss-seidel" and any(world.gravity) and table.has_bodies
