@@ -53,6 +53,14 @@ class Coupling:
         if len(self.counts) < bodies:
             self.counts = np.concatenate([self.counts, np.zeros(bodies - len(self.counts))])
 
+    def arrays(self) -> list:
+        """The per-particle arrays (the ledger and the held contacts' list), once allocated."""
+        if not self.capacity:
+            return []
+        table = self.table
+        return [table.ledger_body, table.ledger_impulse, table.ledger_torque, self._held_body, self._held_point,
+                self._held_normal]
+
     def count_near(self, world, dt: float):
         """How many particles may touch each body in the coming substep: within a radius of
         touching it, beyond the way they close in on it in dt (the body's predicted pose in

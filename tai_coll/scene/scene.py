@@ -205,8 +205,10 @@ class Scene:
 
     def state_nbytes(self) -> int:
         """Bytes of every per-particle array the scene holds: the particle store and, with
-        particle collisions, the pair solver's work arrays, grid, lists and springs."""
+        particle collisions, the pair solver's work arrays, grid, lists and springs; with
+        rigid bodies, the ledger of what particles give them (docs/physics.md 7.2)."""
         held = self._particles.arrays() + (self._pairs.arrays() if self._pairs is not None else [])
+        held += self._bodies.coupling.arrays()
         return int(sum(a.to_numpy().nbytes for a in held))
 
     # ---------------------------------------------------------------- running
