@@ -26,6 +26,7 @@ PRECISIONS = ("f32", "f64")
 # machine's threads).
 MAX_THREADS = 1024
 MAX_SEED = 2**31 - 1  # Taichi keeps its random seed in an int32 (2**31 and above: TypeError)
+OFFLINE_CACHE_BYTES = 1 << 30  # 1 GiB of compiled kernels kept between runs (see _start; Taichi takes an int32)
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,11 @@ def _arch_name(arch) -> str:
 
 def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
     fp = ti.f64 if precision == "f64" else ti.f32
-    common = dict(default_fp=fp, default_ip=ti.i32, random_seed=seed, log_level=ti.WARN)
+    # Taichi's offline cache of compiled kernels holds 100 MiB by default, fewer than a scene
+    # with every kind of collider, pairs and bodies compiles: past it, it evicts and recompiles
+    # on every run (the test suite's kernels alone are several hundred MiB).
+    common = dict(default_fp=fp, default_ip=ti.i32, random_seed=seed, log_level=ti.WARN,
+                  offline_cache_max_size_of_files=OFFLINE_CACHE_BYTES)
     cpu = dict(arch=ti.cpu, **common)
     if threads is not None:
         cpu["cpu_max_num_threads"] = threads
