@@ -33,6 +33,7 @@ import taichi as ti
 from .. import runtime
 from ..geometry.dispatch import world_sdf
 from ..geometry.frames import rotation_from_vector
+from ..response.exchange import SUPPORT_COS
 from ..types import ColliderArgs, vec3
 from .samples import surface_samples
 from .store import orthonormal
@@ -59,9 +60,8 @@ BOUNCE_FACTOR = 2.0
 BOUNCE_FLOOR = 1e-6
 
 INFINITY = 1e30
-#: A contact holds a body up when its normal is within acos(SUPPORT_COS) of up (as
-#: solvers/pairs/shock.py's supports).
-SUPPORT_COS = 0.25
+#: (A contact holds a body up when its normal is within acos(SUPPORT_COS) of up, as
+#: solvers/pairs/shock.py's supports: response/exchange.py's SUPPORT_COS.)
 # Columns of the packed arrays the two kernels take (one row per sample, slot, contact, body).
 SAMPLE_COLUMNS = 7   # position (3), radius, velocity (3)
 FOUND_COLUMNS = 7    # gap, normal (3), surface velocity (3)
@@ -424,6 +424,20 @@ def _effective_mass(contacts: ti.template(), pairs: ti.template(), bodies: ti.te
     return 1.0 / inverse if inverse > 0.0 else 0.0
 
 
+@ti.func
+def _normal_step(contacts: ti.template(), pairs: ti.template(), bodies: ti.template(), totals: ti.template(),
+                 work: ti.template(), k, target: ti.template(), accumulated: ti.template(), pseudo: ti.template()):
+    """One Gauss-Seidel step of contact k's normal constraint, v_n >= work[k, target], on the
+    velocities or (pseudo) the pseudo-velocities: the accumulated impulse in work[k,
+    accumulated] kept >= 0, the change applied. Returns the new accumulated impulse."""
+    n = _row3(contacts, k, 0)
+    vn = _relative_velocity(contacts, pairs, bodies, totals, k, pseudo).dot(n)
+    total = ti.max(work[k, accumulated] - work[k, 6] * (vn - work[k, target]), 0.0)
+    _push(contacts, pairs, bodies, totals, k, (total - work[k, accumulated]) * n, pseudo)
+    work[k, accumulated] = total
+    return total
+
+
 @ti.kernel
 def _solve(contacts: ti.types.ndarray(), pairs: ti.types.ndarray(), bodies: ti.types.ndarray(), dt: float,
            bounce_speed: float, iterations: ti.i32, position_iterations: ti.i32, correction: float, slop: float,
@@ -482,11 +496,7 @@ def _solve(contacts: ti.types.ndarray(), pairs: ti.types.ndarray(), bodies: ti.t
         # the Coulomb disc mu * normal impulse, docs/physics.md 2, step 3).
         for _it in range(iterations):
             for k in range(contacts.shape[0]):
-                n = _row3(contacts, k, 0)
-                vn = _relative_velocity(contacts, pairs, bodies, totals, k, False).dot(n)
-                total = ti.max(work[k, 10] - work[k, 6] * (vn - work[k, 9]), 0.0)
-                _push(contacts, pairs, bodies, totals, k, (total - work[k, 10]) * n, False)
-                work[k, 10] = total
+                total = _normal_step(contacts, pairs, bodies, totals, work, k, 9, 10, False)
                 t1 = _row3(work, k, 0)
                 t2 = _row3(work, k, 3)
                 rel = _relative_velocity(contacts, pairs, bodies, totals, k, False)
@@ -504,8 +514,4 @@ def _solve(contacts: ti.types.ndarray(), pairs: ti.types.ndarray(), bodies: ti.t
         # Positions: the same iteration on pseudo-velocities, which move the pose only.
         for _it in range(position_iterations):
             for k in range(contacts.shape[0]):
-                n = _row3(contacts, k, 0)
-                vn = _relative_velocity(contacts, pairs, bodies, totals, k, True).dot(n)
-                total = ti.max(work[k, 14] - work[k, 6] * (vn - work[k, 13]), 0.0)
-                _push(contacts, pairs, bodies, totals, k, (total - work[k, 14]) * n, True)
-                work[k, 14] = total
+                _normal_step(contacts, pairs, bodies, totals, work, k, 13, 14, True)

@@ -79,10 +79,6 @@ class BodyStore:
         R = self.R[b] if R is None else R
         return x - R @ self.com_local[b], R
 
-    def velocity_at(self, b, point) -> np.ndarray:
-        """Velocity of the body's material point at `point` (world): v + w x (point - x)."""
-        return self.v[b] + cross(self.omega(b), np.asarray(point) - self.x[b])
-
     def apply_impulse(self, b, impulse, point=None):
         """An impulse (N s) at a world point (default: the centre of mass)."""
         impulse = np.asarray(impulse, dtype=np.float64)

@@ -141,14 +141,20 @@ def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: 
         weight = inv_mass + inv_body + ad.dot(inv_inertia @ ad)
         impulse = (size / weight) * d
         v += inv_mass * impulse
-        torque = arm.cross(impulse)
-        if slot >= 0:
-            c.ledger_impulse[slot] += impulse
-            c.ledger_torque[slot] += torque
-        else:
-            ti.atomic_add(c.body_total[2 * b], impulse)
-            ti.atomic_add(c.body_total[2 * b + 1], torque)
+        _book(c, b, slot, impulse, arm.cross(impulse))
     return v, changed
+
+
+@ti.func
+def _book(c: ti.template(), b, slot, impulse: vec3, torque: vec3):
+    """What a particle gave body b: into its ledger slot, or (slot -1: both slots hold other
+    bodies) into the body's shared sum."""
+    if slot >= 0:
+        c.ledger_impulse[slot] += impulse
+        c.ledger_torque[slot] += torque
+    else:
+        ti.atomic_add(c.body_total[2 * b], impulse)
+        ti.atomic_add(c.body_total[2 * b + 1], torque)
 
 
 @ti.func
@@ -156,11 +162,4 @@ def record_force(c: ti.template(), ci, i, x_ref: vec3, impulse: vec3):
     """The penalty solver's share: `impulse` (N s, force times dt) given to particle i by
     body collider ci this substep; the body gets the opposite (docs/physics.md 7.3)."""
     b = c.body[ci]
-    slot = ledger_slot(c, i, b)
-    torque = (x_ref - c.body_com[ci]).cross(impulse)
-    if slot >= 0:
-        c.ledger_impulse[slot] += impulse
-        c.ledger_torque[slot] += torque
-    else:
-        ti.atomic_add(c.body_total[2 * b], impulse)
-        ti.atomic_add(c.body_total[2 * b + 1], torque)
+    _book(c, b, ledger_slot(c, i, b), impulse, (x_ref - c.body_com[ci]).cross(impulse))
