@@ -14,6 +14,7 @@ Importing this package never touches a GPU or Vulkan; `tc.init()` (or first use)
 from . import params
 from .bodies import Body, MassProperties, mass_properties
 from .errors import SimulationError
+from .export import UsdRecorder
 from .geometry import Box, Capsule, Collider, Cylinder, Plane, Sphere, rotation_matrix
 from .geometry import HeightField, TriangleMesh
 from .geometry.implicit import Implicit
@@ -22,6 +23,7 @@ from .materials import Material
 from .response import collide, collide_pair
 from .response.repulsion import RepulsionField
 from .runtime import RuntimeInfo, init
+from .scene.emitters import Emitter
 from .scene.scene import Scene
 from .solvers import ImpulseSolver, PenaltySolver, Solver
 from .solvers.pairs import PairSettings, ParticleCollisions
@@ -35,4 +37,5 @@ __all__ = [
     "HeightField", "TriangleMesh",
     "Implicit", "MeshSDF", "bake_mesh",
     "MassProperties", "mass_properties",
+    "Emitter", "UsdRecorder",
 ]

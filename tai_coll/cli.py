@@ -2,11 +2,17 @@
 
     tai-coll run SCENE.py [--frames N] [--fps F] [--res WxH] [--out DIR] [--video PATH]
                           [--arch cpu|cuda|vulkan|auto] [--threads N] [--no-render] [--no-frames] [--no-video]
+                          [--export ply,npz,usd] [--checkpoint-every N] [--resume STATE]
     tai-coll info [--arch ARCH]
     tai-coll bake MESH [...]      (tai_coll.bake: mesh signed-distance grids, when installed)
 
 `run` loads a scene script, simulates it, renders every frame offscreen, writes PNG frames
-and a video, and prints a summary. A scene script is a Python file with:
+and a video, and prints a summary. --export writes the particles of every frame into the
+output folder, numbered by the scene's frame count (0: the state before the first step):
+particles_00000.ply ... and particles_00000.npz ..., and one USD layer of time samples,
+particles.usd. --checkpoint-every N saves the state every N frames (state_00010.npz ...);
+--resume STATE loads one into the scene the script builds and runs --frames more, numbering
+frames and files on from it. A scene script is a Python file with:
 
 - `scene()` returning a tc.Scene (required);
 - `FRAMES` (optional): the default number of frames;
@@ -37,6 +43,9 @@ ARCHS = ("cpu", "cuda", "vulkan", "auto")
 DEFAULT_FRAMES = 120
 DEFAULT_RES = (1280, 720)
 FRAME_PATTERN = "frame_{:05d}.png"
+EXPORT_PATTERN = "particles_{:05d}.{}"  # frame number, format
+USD_NAME = "particles.usd"
+STATE_PATTERN = "state_{:05d}.npz"
 MAX_FPS = 10000  # --fps must lie in (0, MAX_FPS)
 
 
@@ -84,6 +93,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--arch", default="auto", choices=ARCHS, help="where the physics runs (default auto)")
     run.add_argument("--threads", type=int, help="CPU threads for the physics (default: all cores)")
     run.add_argument("--no-render", action="store_true", help="simulate only: no frames, no video, no Vulkan")
+    run.add_argument("--export", metavar="FORMATS", help="write every frame's particles into the output folder: "
+                                                         "a comma-separated list of ply, npz, usd")
+    run.add_argument("--checkpoint-every", type=int, metavar="N", help="save the scene's state every N frames "
+                                                                        "(DIR/state_FRAME.npz)")
+    run.add_argument("--resume", metavar="STATE", help="start from a state saved by --checkpoint-every (or "
+                                                        "scene.save_state) of the same script")
 
     info = commands.add_parser("info", help="versions, arch, Vulkan and ffmpeg: a preflight check")
     info.add_argument("--arch", default="auto", choices=ARCHS, help="arch to report (default auto)")
@@ -110,6 +125,17 @@ def check_run_args(args):
     if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
         raise UsageError(f"--threads must be from 1 to {MAX_THREADS}; got {args.threads}")
     args.resolution = parse_resolution(args.res) if args.res is not None else None
+    args.formats = parse_formats(args.export) if args.export is not None else ()
+    if args.checkpoint_every is not None and args.checkpoint_every < 1:
+        raise UsageError(f"--checkpoint-every must be >= 1; got {args.checkpoint_every}")
+    if args.resume is not None:
+        state = Path(args.resume)
+        if not state.is_file():
+            raise UsageError(f"--resume: no state file at {state}")
+        if state.suffix.lower() != ".npz":
+            raise UsageError(f"--resume: a state is a .npz file; got {state}")
+    if args.formats or args.checkpoint_every is not None:
+        check_writable("--out", output_folder(args, path))
     if args.video is not None and Path(args.video).suffix.lower() not in (".mp4", ".gif"):
         raise UsageError(f"--video must end in .mp4 or .gif; got {args.video}")
     frame_dir, video_path = output_paths(args, path)
@@ -122,11 +148,31 @@ def check_run_args(args):
     return path
 
 
+def parse_formats(text: str) -> tuple:
+    """--export's formats, in the order given, each once; an unknown one is refused by name."""
+    from .export import FORMATS
+
+    formats = []
+    for name in (part.strip().lower() for part in text.split(",")):
+        if name not in FORMATS:
+            raise UsageError(f"--export: unknown format {name!r}; choose from {', '.join(FORMATS)}")
+        if name not in formats:
+            formats.append(name)
+    if "usd" in formats and importlib.util.find_spec("pxr") is None:
+        raise UsageError("--export usd needs usd-core: pip install 'tai_coll[usd]'")
+    return tuple(formats)
+
+
+def output_folder(args, path: Path) -> Path:
+    """The folder `run` writes into (--out, default out/SCENE)."""
+    return Path(args.out) if args.out else Path("out") / path.stem
+
+
 def output_paths(args, path: Path):
     """(frame folder, video file) that `run` writes, each None when not written."""
     if args.no_render:
         return None, None
-    out = Path(args.out) if args.out else Path("out") / path.stem
+    out = output_folder(args, path)
     frame_dir = None if args.no_frames else out
     video_path = None if args.no_video else (Path(args.video) if args.video else out / f"{path.stem}.mp4")
     return frame_dir, video_path
@@ -238,7 +284,15 @@ def run(args) -> int:
     module = load_script(path)
     frames = args.frames if args.frames is not None else script_frames(module, path)
     scene = build_scene(module, path)
+    if args.resume is not None:
+        try:
+            scene.load_state(args.resume)
+        except (ValueError, FileNotFoundError) as error:
+            raise UsageError(f"--resume: {error}") from None
+    first = scene.frame  # frames are numbered on from a resumed state
     fps = args.fps if args.fps is not None else default_fps(scene)
+    out = output_folder(args, path)
+    exports = Exports(scene, out, args.formats, args.checkpoint_every)
     render = not args.no_render
     renderer = video = None
     frame_dir, video_path = output_paths(args, path)
@@ -268,9 +322,12 @@ def run(args) -> int:
     bar = tqdm(total=frames, desc=path.stem, unit="frame", dynamic_ncols=True, file=sys.stderr, disable=None,
                postfix={"particles": f"{n:,}"})
     try:
-        for k in range(frames):
+        if first == 0:
+            exports.frame()  # the state before the first step: frame 0
+        for k in range(first, first + frames):
             t0 = time.perf_counter()
             scene.step()
+            exports.frame()
             t1 = time.perf_counter()
             timing["simulate"].append(t1 - t0)
             if render:
@@ -278,7 +335,7 @@ def run(args) -> int:
                 t2 = time.perf_counter()
                 timing["render"].append(t2 - t1)
                 if frame_dir is not None:
-                    write_png(frame_dir / FRAME_PATTERN.format(k), image)
+                    write_png(frame_dir / FRAME_PATTERN.format(k), image)  # (k: 0 for the first frame stepped)
                 if video is not None:
                     video.write(image)
                 timing["write"] += time.perf_counter() - t2
@@ -293,11 +350,63 @@ def run(args) -> int:
         raise
     finally:
         bar.close()
+        exports.close()  # (the USD layer keeps the frames up to a failure)
     wall = time.perf_counter() - start
     if frame_dir is not None:
-        remove_stale_frames(frame_dir, frames)
+        remove_stale_frames(frame_dir, first + frames)
     print(summary(scene, frames, wall, timing, renderer, frame_dir, video_path, fps))
+    if exports.written:
+        print(exports.describe())
     return 0
+
+
+class Exports:
+    """What `run` writes besides pictures: every frame's particles in the --export formats
+    and the states of --checkpoint-every, into the output folder."""
+
+    def __init__(self, scene, out: Path, formats: tuple, every: int | None):
+        self.scene, self.out, self.formats, self.every = scene, out, formats, every
+        self.usd = None
+        self.written = {}  # what -> [first, last] frame numbers
+        self.states = []
+        if formats or every is not None:
+            out.mkdir(parents=True, exist_ok=True)
+        if "usd" in formats:
+            from .export import UsdRecorder
+
+            self.usd = UsdRecorder(out / USD_NAME, frame_rate=1.0 / scene.frame_time)
+
+    def frame(self):
+        from .export import save_frame
+        from .scene.checkpoint import frame_data
+
+        number = self.scene.frame
+        if self.formats:
+            data = frame_data(self.scene)
+            for name in self.formats:
+                if name == "usd":
+                    self.usd.add(data)
+                else:
+                    save_frame(self.out / EXPORT_PATTERN.format(number, name), data)
+                self.written.setdefault(name, [number, number])[1] = number
+        if self.every is not None and number and number % self.every == 0:
+            self.states.append(self.scene.save_state(self.out / STATE_PATTERN.format(number)))
+            if self.usd is not None:
+                self.usd.save()  # (a run resumed from this state has the frames up to it)
+
+    def close(self):
+        if self.usd is not None and self.usd.time_codes:
+            self.usd.save()
+
+    def describe(self) -> str:
+        lines = []
+        for name, (a, b) in self.written.items():
+            where = self.out / USD_NAME if name == "usd" else self.out / EXPORT_PATTERN.format(a, name)
+            lines.append(f"  {name}: {where}" + ("" if name == "usd" or a == b else f" .. {EXPORT_PATTERN.format(b, name)}")
+                         + f" (frames {a} to {b})")
+        if self.states:
+            lines.append(f"  states: {self.states[0]}" + (f" .. {self.states[-1].name}" if len(self.states) > 1 else ""))
+        return "\n".join(lines)
 
 
 def remove_stale_frames(folder: Path, count: int):

@@ -34,7 +34,8 @@ mat3 = ti.math.mat3
 ACTIVE = 0
 LEFT_DOMAIN = 1  # left the scene's domain box: frozen where it left, no longer simulated
 NON_FINITE = 2   # its state turned NaN/inf: frozen at its last finite state
-STATUS_NAMES = ("active", "left_domain", "non_finite")
+REMOVED = 3      # its centre entered a sink: inactive, removed from the store at the end of the frame
+STATUS_NAMES = ("active", "left_domain", "non_finite", "removed")
 
 # ---------------------------------------------------------------------------- event counters
 # Slots of the per-scene event counters (ParticleStore.stats), drained into Scene.stats().

@@ -158,9 +158,10 @@ def test_reordering_keeps_the_public_order():
         scene.add_particles(positions=x, mass=mass, radius=radius)
         scene.step(20)
         runs[reorder] = scene
-    ids = runs[True]._particles._public()
-    assert ids is not None and not np.array_equal(ids, np.arange(n))  # the store was permuted
-    assert runs[False]._particles._public() is None
+    slots = runs[True]._particles._slots()
+    assert slots is not None and not np.array_equal(slots, np.arange(n))  # the store was permuted
+    assert runs[False]._particles._slots() is None
+    assert np.array_equal(runs[True].ids(), np.arange(n)) and np.array_equal(runs[False].ids(), np.arange(n))
     assert np.array_equal(runs[True].masses(), runs[False].masses())
     assert np.array_equal(runs[True].radii(), runs[False].radii())
     # the same physics: only the order of each particle's sum over neighbours differs
@@ -199,9 +200,18 @@ def test_store_permute_moves_every_quantity():
     assert np.array_equal(store.clearance.to_numpy()[:n], order)
     for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius)):
         assert np.array_equal(store.read(name), values), name
-    store.add(x[:30], v[:30], mass[:30], radius[:30])  # grows past the capacity: order reset
-    assert store._public() is None
+    store.add(x[:30], v[:30], mass[:30], radius[:30])  # grows past the capacity: slots kept
+    assert store.capacity >= n + 30 and np.array_equal(store.x.to_numpy()[:n], x[order])
     assert np.array_equal(store.read("x"), np.concatenate([x, x[:30]]))
+    assert np.array_equal(store.public_ids(), np.arange(n + 30))
+    keep = np.ones(n + 30, dtype=bool)
+    keep[[0, 7, n + 3]] = False  # slots: two of the permuted particles and a new one
+    store.compact(keep)
+    gone = {int(order[0]), int(order[7]), n + 3}
+    left = np.array([k for k in range(n + 30) if k not in gone])
+    assert np.array_equal(store.public_ids(), left)  # ascending, the removed ids gone
+    assert np.array_equal(store.read("x"), np.concatenate([x, x[:30]])[left])
+    assert np.array_equal(store.read("mass"), np.concatenate([mass, mass[:30]])[left])
     with pytest.raises(ValueError, match="n must be"):
         store.permute(perm, n - 1)
 

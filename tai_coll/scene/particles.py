@@ -1,14 +1,23 @@
 """The particle store: one array per quantity (structure of arrays), with a capacity that
-grows by doubling. The public order (what `read` returns and `write` takes) is the order of
-`add` and never changes; the storage order may (`permute` puts particles near each other
-in space next to each other in memory), and `ids` says which particle is in which slot.
-Kernels take the store's arrays as one argument pack (`args`, types.ParticleArgs)."""
+grows by doubling, so adding particles (an emitter, every frame) reallocates only now and
+then and never recompiles a kernel (array shapes are launch arguments).
+
+Every particle has an id, given in the order of `add` and never reused (`ids`, one per
+storage slot). The public order (what `read` returns and `write` takes) is ascending id,
+which is the order particles were added in; the storage order may differ (`permute` puts
+particles near each other in space next to each other in memory) and `compact` removes
+particles (sinks) keeping the storage order of the rest. Kernels take the store's arrays as
+one argument pack (`args`, types.ParticleArgs)."""
 
 
 import numpy as np
 import taichi as ti
 
 from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs
+
+#: Ids are kept as int32 on the device (the DEM springs find their partners by id): a store
+#: gives out at most this many in its life.
+MAX_IDS = 2**31 - 1
 
 QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance", "rest", "anchor")
 #: Every array the store keeps per particle, in the order of _stored_arrays and _permute's arguments.
@@ -47,6 +56,22 @@ def _permute_spin(order: ti.types.ndarray(), n: ti.i32, w: ti.types.ndarray(),
 
 
 @ti.kernel
+def _copy_into(target: ti.types.ndarray(), start: ti.i32, source: ti.types.ndarray()):
+    for k in range(source.shape[0]):
+        target[start + k] = source[k]
+
+
+def _like(array, n: int):
+    """A fresh ndarray of n items of `array`'s element type."""
+    shape = array.element_shape
+    if not shape:
+        return ti.ndarray(array.dtype, shape=n)
+    if len(shape) == 1:
+        return ti.Vector.ndarray(shape[0], array.dtype, shape=n)
+    return ti.Matrix.ndarray(shape[0], shape[1], array.dtype, shape=n)
+
+
+@ti.kernel
 def _max_speed_sq(n: ti.i32, v: ti.types.ndarray(), flags: ti.types.ndarray(),
                   # outputs
                   largest: ti.types.ndarray()):
@@ -60,6 +85,11 @@ def _spin_array(capacity: int):
     w = ti.Vector.ndarray(3, float, shape=capacity)
     w.fill(0.0)
     return w
+
+
+def _numpy_dtype(array):
+    """The numpy dtype of a Taichi ndarray's elements."""
+    return {ti.f32: np.float32, ti.f64: np.float64, ti.i32: np.int32, ti.i64: np.int64}[array.dtype]
 
 
 def _stored_arrays(capacity: int) -> tuple:
@@ -109,8 +139,16 @@ class ParticleStore:
         # The lowest storage slot whose position was written from the host since the pair
         # solver last gave the written particles their overlap allowances (None: none since).
         self.placed_from = None
+        self.next_id = 0  # the id the next particle added gets
+        # `host_writes` counts writes of particles already in the store from the host
+        # (`write`): what holds between the substeps of a run for particles as they were (the
+        # DEM springs) holds no longer. Adding and removing particles leave the others alone.
+        self.host_writes = 0
         self._args = None  # the argument packs, built when first asked for (see `args`)
         self._spin_args = None
+        self.permuted = False  # whether the storage order may differ from ascending id
+        self._slots_host = None  # the storage slot of each particle in public order (see _slots)
+        self._spare = None  # arrays `permute` writes into (then swapped in)
         self._allocate(max(int(capacity), 1))
 
     def _stored(self) -> tuple:
@@ -133,13 +171,11 @@ class ParticleStore:
             self.edits += 1
 
     def _allocate(self, capacity: int):
-        old = {name: self.read(name) for name in self._quantities()} if self.count else None
-        # ids: the public index of the particle in each slot
+        """Arrays of `capacity` slots, the particles kept in their slots (storage order kept)."""
+        names = STORED + (("w",) if self.w is not None else ())
+        old = {name: getattr(self, name).to_numpy()[: self.count] for name in names} if self.count else {}
         self._set_stored(_stored_arrays(capacity))
-        self.ids.from_numpy(np.arange(capacity, dtype=np.int32))
-        self.permuted = False  # whether the storage order may differ from the public order
-        self._ids_host = None  # host copy of ids[:count], fetched when needed (see _public)
-        self._spare = None  # arrays `permute` writes into (then swapped in)
+        self._spare = None
         if self.w is not None:
             self.w = _spin_array(capacity)
             self._w_spare = None
@@ -147,28 +183,37 @@ class ParticleStore:
         self.version += 1
         self.edits += 1
         self._args = self._spin_args = None
-        if old is not None:  # rewritten in public order: storage order back to the identity
+        if self.count:
             for name, values in old.items():
                 self._write_range(name, 0, values)
 
     def _write_range(self, name: str, start: int, values: np.ndarray):
-        """Storage slots start.. of one quantity."""
+        """Storage slots start.. of one quantity: a transfer of the values alone and a copy
+        kernel (the whole array's round trip through the host would cost O(capacity) for
+        every few particles an emitter adds)."""
         self.version += 1
         self.edits += 1
         array = getattr(self, name)
-        full = array.to_numpy()
-        full[start:start + len(values)] = values
-        array.from_numpy(np.ascontiguousarray(full, dtype=full.dtype))
+        values = np.asarray(values)
+        if not len(values):
+            return
+        staged = _like(array, len(values))
+        staged.from_numpy(np.ascontiguousarray(values, dtype=_numpy_dtype(array)))
+        _copy_into(array, start, staged)
 
     def add(self, x, v, mass, radius) -> slice:
-        """Append validated host arrays; returns the slice of the new particles."""
+        """Append validated host arrays, each particle with the next id; returns the slice
+        of the new particles in public order."""
         n = len(x)
+        if self.next_id + n > MAX_IDS:
+            raise ValueError(f"positions: this scene has given out {self.next_id:,} particle ids; {n:,} more would "
+                             f"pass the {MAX_IDS:,} it can hold")
         if self.count + n > self.capacity:
             self._allocate(max(2 * self.capacity, self.count + n))
         start = self.count
-        if self.permuted:  # new particles take the next slots, in their order
-            self._write_range("ids", start, np.arange(start, start + n, dtype=np.int32))
-            self._ids_host = None
+        self._write_range("ids", start, np.arange(self.next_id, self.next_id + n, dtype=np.int32))
+        self.next_id += n
+        self._slots_host = None
         for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
                              ("flags", np.zeros(n, dtype=np.int32)), ("allowance", np.zeros(n)),
                              ("rest", np.zeros(n)), ("anchor", x)):
@@ -195,34 +240,60 @@ class ParticleStore:
         """A kernel has just written the clearances for the particles as it left them."""
         self.clearance_key = (self.version, table.version)
 
-    def _public(self) -> np.ndarray | None:
-        """The public index of the particle in each slot (None: the identity)."""
+    def _slots(self) -> np.ndarray | None:
+        """The storage slot of each particle in public order, ascending id (None: slot k
+        holds the k-th, as while the store was never permuted: adding appends larger ids and
+        compacting keeps the order)."""
         if not self.permuted:
             return None
-        if self._ids_host is None:
-            self._ids_host = self.ids.to_numpy()[: self.count]
-        return self._ids_host
+        if self._slots_host is None:
+            self._slots_host = np.argsort(self.ids.to_numpy()[: self.count], kind="stable")
+        return self._slots_host
+
+    def public_ids(self) -> np.ndarray:
+        """Every particle's id (int64), ascending: the public order."""
+        ids = self.ids.to_numpy()[: self.count].astype(np.int64)
+        slots = self._slots()
+        return ids if slots is None else ids[slots]
 
     def read(self, name: str) -> np.ndarray:
         """One quantity of every particle, in public order."""
         stored = getattr(self, name).to_numpy()[: self.count]
-        ids = self._public()
-        if ids is None:
-            return stored.copy()
-        values = np.empty_like(stored)
-        values[ids] = stored
-        return values
+        slots = self._slots()
+        return stored.copy() if slots is None else stored[slots]
 
     def write(self, name: str, values: np.ndarray):
         """One quantity of every particle, given in public order."""
-        ids = self._public()
-        if ids is not None:
-            values = np.asarray(values)[ids]
+        slots = self._slots()
+        if slots is not None:
+            stored = np.empty_like(np.asarray(values))
+            stored[slots] = values
+            values = stored
         self._write_range(name, 0, values)
+        self.host_writes += 1
         if name == "x" and self.count:
             self.placed_from = 0  # every particle was placed anew
         if name not in ("rest", "anchor"):
             self.wake_all()
+
+    def compact(self, keep: np.ndarray):
+        """Remove the particles of the slots where `keep` (bool, one per slot up to the
+        count) is False; the others keep their ids and their storage order. Returns the
+        order (an ndarray: slot k now holds what slot order[k] held) and the new count, for
+        whatever else is kept per slot (the DEM springs)."""
+        kept = np.flatnonzero(keep).astype(np.int32)
+        order = ti.ndarray(ti.i32, shape=max(len(kept), 1))
+        if len(kept):
+            order.from_numpy(kept)
+        n = len(kept)
+        if n == self.count:
+            return order, n
+        if self.placed_from is not None:  # (slots shift down: the new ones' first slot with them)
+            self.placed_from = int(np.count_nonzero(keep[: self.placed_from]))
+        self._apply_order(order, n)
+        self.count = n
+        self._slots_host = None
+        return order, n
 
     def wake_all(self):
         """Every sleeping particle awake, every rest time back to zero (the state was written
@@ -235,6 +306,12 @@ class ParticleStore:
         moves with it, the clearances too (they stay valid); the public order does not change."""
         if n != self.count:
             raise ValueError(f"permute: n must be the particle count {self.count}; got {n}")
+        self._apply_order(order, n)
+        self.permuted = True
+        self._slots_host = None
+
+    def _apply_order(self, order, n: int):
+        """Slot k gets the particle of slot order[k], k < n, for every stored quantity."""
         if self._spare is None:
             self._spare = _stored_arrays(self.capacity)
         current = self._stored()
@@ -247,8 +324,6 @@ class ParticleStore:
             _permute_spin(order, n, self.w, self._w_spare)
             self.w, self._w_spare = self._w_spare, self.w
         self._args = self._spin_args = None
-        self.permuted = True
-        self._ids_host = None
         self.edits += 1
 
     @property

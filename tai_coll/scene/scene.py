@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from .. import notices, runtime, validate
+from .. import export, notices, runtime, validate
 from ..bodies.body import Body
 from ..bodies.mass_properties import mass_properties
 from ..bodies.system import BodyMotion, BodySystem
@@ -17,8 +17,10 @@ from ..neighbors.hash_grid import NEIGHBOUR_CAPACITY
 from ..response.repulsion import RepulsionField
 from ..solvers import ImpulseSolver, Solver, World
 from ..solvers.pairs import PairSettings, ParticleCollisions
-from ..types import STATUS_NAMES
+from ..types import REMOVED, STATUS_NAMES
+from . import checkpoint
 from .colliders import ColliderEntry, ColliderTable
+from .emitters import Emitter, Sinks
 from .motion import make_motion
 from .particles import ParticleStore
 from .stepping import DEFAULT_SUBSTEPS, DIVERGED_FACTOR, DIVERGED_SPEED, SubstepChoice
@@ -71,6 +73,9 @@ class Scene:
         self._pairs = None  # particle-particle collisions, off until enabled
         self._bodies = BodySystem(self._colliders)  # rigid bodies (bodies/system.py)
         self._body_handles = []
+        self._emitters = []  # sources of particles (emitters.py), in the order added
+        self._sinks = Sinks()  # regions that remove particles
+        self._frame = 0  # frames stepped (save_state keeps it; frames written are numbered by it)
         self._time_base = 0.0  # time when dt last changed (substeps="auto")
         self._substep_count = 0  # substeps of dt since then
         self._substep_limit = "fixed" if not self._stepping.auto else "frame_dt"  # what set dt (stats)
@@ -157,6 +162,36 @@ class Scene:
         r = validate.per_item("radius", radius, n)
         return self._particles.add(x, v, m, r)
 
+    def add_emitter(self, region, *, rate, velocity=(0.0, 0.0, 0.0), radius=0.005, mass=1.0, start=0.0,
+                    stop=None, max_particles=None, seed=0) -> Emitter:
+        """Emit particles (docs/physics.md 8): at the start of every frame, the particles due
+        by its end at `rate` per second from time `start` (s) until `stop` (None: no end), at
+        most `max_particles` in all, each placed at a random point of `region` (a tc.Box,
+        tc.Sphere or tc.Cylinder, read as a volume) where it overlaps no particle, no other
+        new one and no collider, with `velocity` (m/s), `radius` (m) and `mass` (kg). Where
+        the region has no room it emits fewer and counts the rest as skipped. The same `seed`
+        gives the same particles. Returns the tc.Emitter (emitted, skipped)."""
+        emitter = Emitter(region, rate=rate, velocity=velocity, radius=radius, mass=mass, start=start, stop=stop,
+                          max_particles=max_particles, seed=seed)
+        self._emitters.append(emitter)
+        return emitter
+
+    def add_sink(self, region) -> None:
+        """Remove particles whose centre enters `region` (a tc.Box, tc.Sphere or tc.Cylinder,
+        read as a volume): checked after every substep, removed at the end of the frame
+        (docs/physics.md 8). Their ids are never given out again."""
+        self._sinks.add(region)
+
+    @property
+    def emitters(self) -> list[Emitter]:
+        """The emitters, in the order they were added."""
+        return list(self._emitters)
+
+    @property
+    def sinks(self) -> list:
+        """The sinks' regions, in the order they were added."""
+        return list(self._sinks.regions)
+
     def enable_particle_collisions(self, *, material: Material | None = None, **options) -> ParticleCollisions:
         """Let particles collide with each other (docs/physics.md 5): impulses between pairs
         found by a spatial hash grid each substep, with restitution and friction from
@@ -215,40 +250,72 @@ class Scene:
     def step(self, frames: int = 1) -> None:
         """Advance `frames` frames of `substeps` substeps of `dt` seconds."""
         frames = validate.integer("frames", frames, low=0)
-        self._check_solver()
         kinematic = self._colliders.has_kinematic
+        sinks = len(self._sinks) > 0
         for _ in range(frames):
+            if self._emitters:
+                self._emit()
+            self._check_solver()
             if self._stepping.auto:
                 self._choose_substeps()
             world = self._world
             bodies = self._bodies if self._bodies.count else None
-            if self._pairs is not None and self._particles.count:
-                # Particles interact: every substep is its own sequence of phases.
+            pairs = self._pairs is not None and self._particles.count
+            if pairs or kinematic or sinks:
+                # Particles interact, colliders move (bodies among them: new poses before every
+                # substep) or sinks take particles: every substep is its own sequence of phases.
                 for _ in range(self.substeps):
                     if kinematic:
                         self._colliders.advance(self.time, self.dt)
                     if bodies is not None:
                         bodies.begin(world, self.dt)
-                    self.solver.pair_substep(world, self._pairs, self.dt)
+                    if pairs:
+                        self.solver.pair_substep(world, self._pairs, self.dt)
+                    else:
+                        self.solver.advance(world, self.dt, 1)
                     if bodies is not None:
                         bodies.end(world, self.dt)
-                    self._substep_count += 1
-            elif kinematic:
-                # Colliders move (bodies among them): new poses before every substep.
-                for _ in range(self.substeps):
-                    self._colliders.advance(self.time, self.dt)
-                    if bodies is not None:
-                        bodies.begin(world, self.dt)
-                    self.solver.advance(world, self.dt, 1)
-                    if bodies is not None:
-                        bodies.end(world, self.dt)
+                    if sinks and self._particles.count:
+                        self._sinks.mark(self._particles)
                     self._substep_count += 1
             else:
                 self.solver.advance(world, self.dt, self.substeps)
                 self._substep_count += self.substeps
             if bodies is not None:
                 self._colliders.commit_poses()  # the table at the bodies' poses between frames
+            if sinks:
+                self._remove_marked()
+            self._frame += 1
             self._check_health()
+
+    def _emit(self):
+        """Each emitter's particles due by the end of this frame (emitters.py), placed clear
+        of the particles there are (any status) and of the colliders at their poses now."""
+        store = self._particles
+        t1 = self.time + self.frame_time
+        for emitter in self._emitters:
+            owed = emitter.owed(t1)
+            if not owed:
+                continue
+            # storage order: the placement only needs where particles are, not which
+            x = store.x.to_numpy()[: store.count].astype(np.float64)
+            r = store.radius.to_numpy()[: store.count].astype(np.float64)
+            new = emitter.place(owed, x, r, self._colliders.entries)
+            if len(new):
+                n = len(new)
+                store.add(new, np.tile(emitter.velocity, (n, 1)), np.full(n, emitter.mass), np.full(n, emitter.radius))
+
+    def _remove_marked(self):
+        """The particles the sinks marked this frame leave the store (ids not reused)."""
+        store = self._particles
+        keep = store.flags.to_numpy()[: store.count] != REMOVED
+        if keep.all():
+            return
+        removed = int(keep.size - np.count_nonzero(keep))
+        order, n = store.compact(keep)
+        if self._pairs is not None:
+            self._pairs.compacted(order, n, store)
+        self._sinks.removed += removed
 
     def _check_solver(self):
         """Let the solver look at the scene before it steps (the penalty solver compares dt
@@ -406,6 +473,17 @@ class Scene:
     def colliders(self) -> list[ColliderEntry]:
         return list(self._colliders.entries)
 
+    @property
+    def frame(self) -> int:
+        """Frames stepped since the scene was built (or in the run a loaded state came from)."""
+        return self._frame
+
+    def ids(self) -> np.ndarray:
+        """(N,) int64: each particle's id, unique and never reused, ascending; every reader
+        (positions(), velocities(), ...) returns particles in this order, which is the order
+        they were added in."""
+        return self._particles.public_ids()
+
     def positions(self) -> np.ndarray:
         """(N, 3) copy of the particle centers, in the order they were added."""
         return self._particles.read("x")
@@ -451,8 +529,12 @@ class Scene:
         "frame_dt" (one substep, or dt's cap), "max_substeps" (capped). With rigid bodies:
         body_contacts (the bodies' contacts with colliders and each other found in the last
         substep, speculative ones included) and held_contacts (with particles held by their
-        supports, docs/physics.md 7.2)."""
+        supports, docs/physics.md 7.2). With emitters or sinks: emitted, emission_skipped
+        (owed particles that found no room) and removed (by sinks)."""
         out = dict(self._particles.totals, substeps=self.substeps, dt=self.dt, substep_limit=self._substep_limit)
+        if self._emitters or len(self._sinks):
+            out.update(emitted=sum(e.emitted for e in self._emitters),
+                       emission_skipped=sum(e.skipped for e in self._emitters), removed=self._sinks.removed)
         if self._bodies.count:
             out.update(body_contacts=self._bodies.contacts, held_contacts=self._bodies.held)
         return out
@@ -480,6 +562,31 @@ class Scene:
         if x.shape != (self.num_particles, 3):
             raise ValueError(f"positions must have shape ({self.num_particles}, 3); got {x.shape}")
         self._particles.write("x", x)
+
+    # ---------------------------------------------------------------- files
+    def save_frame(self, path) -> None:
+        """Write the particles now (and the bodies' poses) to `path`, by its extension:
+        .ply (binary; x, y, z, vx, vy, vz, radius, id per vertex), .npz (positions,
+        velocities, radii, masses, ids, time, frame; body_... with bodies) or .usd/.usda/.usdc
+        (one time sample at this frame; usd-core, the `usd` extra). For a USD animation of
+        many frames, tc.UsdRecorder. Parent folders are made; files are written atomically."""
+        export.format_of(path)  # (refuses a bad path before reading anything)
+        export.save_frame(path, checkpoint.frame_data(self))
+
+    def save_state(self, path):
+        """Write everything the next step reads (particles with ids, spins, springs and
+        flags, time, frame count, colliders' poses, bodies, emitters' random state, sinks'
+        count, the pair solver's neighbour data) to `path`, a versioned .npz written
+        atomically. Returns the path."""
+        return checkpoint.save_state(self, path)
+
+    def load_state(self, path) -> None:
+        """Continue from a state save_state wrote. The scene must be built as the one that
+        saved it (same colliders, bodies, emitters, sinks, solver and settings; its
+        particles are replaced): else ValueError saying what differs. On the CPU the run then
+        continues bit for bit as the saved one would have. FileNotFoundError if there is no
+        such file."""
+        checkpoint.load_state(self, path)
 
     def __repr__(self):
         bodies = f"{self._bodies.count} bodies, " if self._bodies.count else ""

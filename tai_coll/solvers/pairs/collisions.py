@@ -183,6 +183,12 @@ class ParticleCollisions:
             self.springs.permute(self.grid.entries, particles.count, particles)  # springs move with them
             self._since_reorder = 0
 
+    def compacted(self, order, n: int, particles):
+        """The store removed particles (ParticleStore.compact: slot k holds what slot order[k]
+        held): the springs move with the particles left; what else is kept per slot is keyed
+        by the store's edits and rebuilt."""
+        self.springs.permute(order, n, particles)
+
     # ---------------------------------------------------------------- impulse pairs
     def impulse_substep(self, world, solver, dt: float):
         """One substep with impulse pairs (the module's phases 1-6); solver: the scene's

@@ -5,11 +5,15 @@ Two sets of arrays: each substep the force kernel reads last substep's springs f
 and writes this substep's, for the contacts touching now, to the other (a contact that ended
 is forgotten), then the sets swap roles. A spring is found again by its partner's public id
 (the store's `ids`), so the springs survive the store's reordering by cell, which moves them
-with their particles (`permute`). Writing the store from the host (adding, moving or removing
-particles) empties them: a spring is only carried between the substeps of a run.
+with their particles (`permute`), and survive particles added (an emitter's) and removed (a
+sink's: `permute` by the store's compaction order; a spring whose partner is gone is not found
+again, and forgotten). Writing particles' state from the host (set_positions, ...) empties
+them: a spring is only carried between the substeps of a run.
 """
 
 import functools
+
+import numpy as np
 
 import taichi as ti
 
@@ -67,23 +71,40 @@ class SpringHistory:
         self.sets = None
         self.rolling = False
         self.current = 0  # the set holding last substep's springs
-        self.key = None  # the store's edit count the springs describe
+        self.key = None  # the store's count of host writes the springs describe
+        self.slots = 0  # the store's slots below this hold springs (above: none yet)
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
         self._packs = None
 
     def fit(self, store, rolling: bool):
         """Arrays for the store's capacity (with rolling springs when the particles spin), and
-        no springs when the store was written from outside since the last substep."""
-        if self.sets is None or self.sets[0]["held"].shape[0] != store.capacity or self.rolling != rolling:
+        no springs when particles were written from the host since the last substep; particles
+        added since then start with none."""
+        if self.sets is None or self.rolling != rolling:
             self.sets = [_spring_set(store.capacity, rolling), _spring_set(store.capacity, rolling)]
             self.rolling = rolling
             self.current = 0
             self.key = None
             self._packs = None
-        if self.key != store.edits:
+        elif self.sets[0]["held"].shape[0] != store.capacity:  # the store grew, its slots kept: so are the springs
+            grown = [_spring_set(store.capacity, rolling), _spring_set(store.capacity, rolling)]
+            for old, new in zip(self.sets, grown):
+                for name, array in old.items():
+                    values = np.zeros(new[name].shape + tuple(array.element_shape), dtype=array.to_numpy().dtype)
+                    values[: array.shape[0]] = array.to_numpy()
+                    new[name].from_numpy(values)
+            self.sets = grown
+            self._packs = None
+        if self.key != store.host_writes:
             self.sets[self.current]["held"].fill(0)
-            self.key = store.edits
+            self.key = store.host_writes
+        elif store.count > self.slots:  # particles added since: no springs (their slots may hold old ones)
+            held = self.sets[self.current]["held"]
+            values = held.to_numpy()
+            values[self.slots: store.count] = 0
+            held.from_numpy(values)
+        self.slots = store.count
 
     @property
     def args(self):
@@ -104,7 +125,7 @@ class SpringHistory:
             return
         _permute_kernel(self.rolling)(order, n, self.args)
         self.swap()
-        self.key = store.edits
+        self.slots = n
 
     def arrays(self) -> list:
         """Every array the springs hold (for memory accounting)."""

@@ -1,0 +1,203 @@
+"""Particles that enter and leave a running scene (docs/physics.md 8): emitters place new
+particles in a region at a rate, sinks remove the particles whose centre enters a region.
+
+Regions are the solid shapes the colliders use (Box, Sphere, Cylinder), read as volumes:
+their pose is where they were built (a region does not move).
+
+An emitter works at the start of each frame: it owes floor(rate (t1 - start)) particles by
+the end t1 of the frame (t1 clipped to its stop), less those it placed or skipped before,
+and places each where it overlaps no particle (in the scene or placed just now) and no
+collider, trying random points of the region (ATTEMPTS per particle, from its own seeded
+generator: the same seed, the same particles). What finds no room is skipped and counted.
+
+A sink marks the particles whose centre lies in it after a substep (a kernel: no host
+work per substep); the scene removes the marked ones at the end of the frame, compacting
+the store (scene/particles.py `compact`): ids are never reused.
+"""
+
+
+import math
+
+import numpy as np
+import taichi as ti
+
+from .. import validate
+from ..geometry.colliders import Box, Cylinder, Sphere
+from ..types import ACTIVE, REMOVED, ParticleArgs, vec3
+
+#: Random points of the region tried per particle owed before it is skipped.
+ATTEMPTS = 16
+#: Kinds of region in the sinks' table (and the emitters' sampling).
+BOX, SPHERE, CYLINDER = 0, 1, 2
+#: Candidate points checked against the particles near the region at once (memory: this
+#: many times the nearby particles, in float64).
+CHUNK = 1 << 20
+
+
+def region_row(name: str, region) -> tuple:
+    """(kind, centre, rotation, (a, b, c)) of a region: a Box (half extents), Sphere
+    (radius, 0, 0) or Cylinder (radius, half height, 0; its axis the local y)."""
+    if isinstance(region, Box):
+        return BOX, region.center, region.rotation, tuple(region.half_extents)
+    if isinstance(region, Sphere):
+        return SPHERE, region.center, region.rotation, (region.radius, 0.0, 0.0)
+    if isinstance(region, Cylinder):
+        return CYLINDER, region.center, region.rotation, (region.radius, region.half_height, 0.0)
+    raise TypeError(f"{name} must be a tc.Box, tc.Sphere or tc.Cylinder (a volume); got {type(region).__name__}")
+
+
+def _bound(kind: int, size) -> float:
+    """The radius of a sphere about the region's centre that holds it."""
+    if kind == BOX:
+        return float(np.linalg.norm(size))
+    if kind == SPHERE:
+        return float(size[0])
+    return float(math.hypot(size[0], size[1]))
+
+
+def _sample(rng: np.random.Generator, kind: int, size, n: int) -> np.ndarray:
+    """n points uniform in the region's local frame."""
+    if kind == BOX:
+        return rng.uniform(-1.0, 1.0, (n, 3)) * np.asarray(size)
+    if kind == SPHERE:
+        direction = rng.normal(size=(n, 3))
+        direction /= np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)
+        return direction * (size[0] * rng.uniform(0.0, 1.0, n) ** (1.0 / 3.0))[:, None]
+    radius, half = size[0], size[1]
+    r = radius * np.sqrt(rng.uniform(0.0, 1.0, n))
+    angle = rng.uniform(0.0, 2.0 * np.pi, n)
+    return np.stack([r * np.cos(angle), rng.uniform(-half, half, n), r * np.sin(angle)], axis=1)
+
+
+class Emitter:
+    """A source of particles (Scene.add_emitter). Reads: `emitted` and `skipped` (particles
+    owed that found no room), and the settings it was made with."""
+
+    def __init__(self, region, *, rate, velocity=(0.0, 0.0, 0.0), radius=0.005, mass=1.0, start=0.0, stop=None,
+                 max_particles=None, seed=0):
+        self.kind, self.center, self.rotation, self.size = region_row("region", region)
+        self.region = region
+        self.rate = validate.real("rate", rate, low=0.0, low_open=True, stored=False)
+        self.velocity = validate.vector3("velocity", velocity)
+        self.radius = validate.real("radius", radius, low=0.0, low_open=True)
+        self.mass = validate.real("mass", mass, low=0.0, low_open=True)
+        self.start = validate.real("start", start, low=0.0, stored=False)
+        self.stop = validate.real("stop", stop, low=self.start, low_open=True, allow_none=True, stored=False)
+        self.max_particles = None if max_particles is None else validate.integer("max_particles", max_particles,
+                                                                                 low=0)
+        self.seed = validate.integer("seed", seed, low=0)
+        self.rng = np.random.default_rng(self.seed)
+        self.emitted = 0
+        self.skipped = 0
+
+    def __repr__(self):
+        return (f"Emitter({type(self.region).__name__}, rate={self.rate:g}/s, radius={self.radius:g}, "
+                f"mass={self.mass:g}, velocity={self.velocity.tolist()}, start={self.start:g}, stop={self.stop}, "
+                f"max_particles={self.max_particles}, seed={self.seed})")
+
+    def owed(self, t1: float) -> int:
+        """Particles due by time t1 and not yet placed or skipped."""
+        end = t1 if self.stop is None else min(t1, self.stop)
+        due = self.rate * max(end - self.start, 0.0)
+        due = math.floor(due + 1e-9 * max(1.0, due))  # (rate * time may land a hair below a whole number)
+        owed = max(due - self.emitted - self.skipped, 0)
+        if self.max_particles is not None:
+            owed = min(owed, self.max_particles - self.emitted)
+        return max(owed, 0)
+
+    def place(self, owed: int, x: np.ndarray, r: np.ndarray, colliders) -> np.ndarray:
+        """World positions of up to `owed` new particles that overlap none of the particles
+        at x (radii r) nor each other nor any collider entry; counts what found no room."""
+        if owed <= 0:
+            return np.zeros((0, 3))
+        local = _sample(self.rng, self.kind, self.size, owed * ATTEMPTS)
+        points = self.center + local @ self.rotation.T
+        ok = self._clear_of_colliders(points, colliders)
+        if len(x):
+            reach = _bound(self.kind, self.size) + self.radius + float(np.max(r))
+            near = np.sum((x - self.center) ** 2, axis=1) <= reach * reach
+            x_near, r_near = x[near], r[near]
+            step = max(CHUNK // max(len(x_near), 1), 1)
+            for lo in range(0, len(points), step):
+                d2 = np.sum((points[lo:lo + step, None, :] - x_near[None]) ** 2, axis=2)
+                ok[lo:lo + step] &= np.all(d2 >= (r_near[None] + self.radius) ** 2, axis=1)
+        placed = np.empty((owed, 3))
+        count = 0
+        gap2 = (2.0 * self.radius) ** 2
+        for p in points[ok]:
+            if count and np.min(np.sum((placed[:count] - p) ** 2, axis=1)) < gap2:
+                continue
+            placed[count] = p
+            count += 1
+            if count == owed:
+                break
+        self.emitted += count
+        self.skipped += owed - count
+        return placed[:count]
+
+    def _clear_of_colliders(self, points: np.ndarray, colliders) -> np.ndarray:
+        """Whether a particle centred at each point is clear of every collider entry at its
+        current pose (the query takes the shape's own pose: points go to its frame)."""
+        ok = np.ones(len(points), dtype=bool)
+        for entry in colliders:
+            shape = entry.shape
+            rest = shape.center + ((points - entry.center) @ entry.rotation) @ shape.rotation.T
+            ok &= shape.signed_distance(rest) >= self.radius
+        return ok
+
+    def state(self) -> dict:
+        """What the next emission reads besides the scene's time (save_state)."""
+        return {"emitted": self.emitted, "skipped": self.skipped, "rng": self.rng.bit_generator.state}
+
+    def restore(self, state: dict):
+        self.emitted, self.skipped = int(state["emitted"]), int(state["skipped"])
+        self.rng.bit_generator.state = state["rng"]
+
+
+class Sinks:
+    """The scene's sinks: a table of regions on the device and the count removed."""
+
+    def __init__(self):
+        self.regions = []
+        self.table = None
+        self.removed = 0  # particles removed since the scene was built
+
+    def __len__(self):
+        return len(self.regions)
+
+    def add(self, region):
+        row = region_row("region", region)
+        self.regions.append(region)
+        rows = np.array([[k, *c, *R.ravel(), *size] for k, c, R, size in
+                         (region_row("region", r) for r in self.regions)], dtype=np.float64)
+        self.table = ti.ndarray(float, shape=rows.shape)
+        self.table.from_numpy(rows.astype(self.table.to_numpy().dtype))
+        return row
+
+    def mark(self, particles):
+        """Flag the active particles whose centre lies in a sink REMOVED (a kernel)."""
+        _mark(particles.args, self.table, len(self.regions))
+
+
+@ti.kernel
+def _mark(particles: ParticleArgs, table: ti.types.ndarray(ndim=2), sinks: ti.i32):
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE:
+            p = particles.x[i]
+            for s in range(sinks):
+                d = p - vec3(table[s, 1], table[s, 2], table[s, 3])
+                # local = R^T d (R row-major in columns 4..12)
+                local = vec3(0.0)
+                for a in ti.static(range(3)):
+                    local[a] = table[s, 4 + a] * d[0] + table[s, 7 + a] * d[1] + table[s, 10 + a] * d[2]
+                kind = ti.cast(table[s, 0], ti.i32)
+                a, b = table[s, 13], table[s, 14]
+                inside = False
+                if kind == 0:
+                    inside = abs(local[0]) <= a and abs(local[1]) <= b and abs(local[2]) <= table[s, 15]
+                elif kind == 1:
+                    inside = local.norm_sqr() <= a * a
+                else:
+                    inside = abs(local[1]) <= b and local[0] * local[0] + local[2] * local[2] <= a * a
+                if inside:
+                    particles.flags[i] = REMOVED
