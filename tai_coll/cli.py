@@ -292,7 +292,7 @@ def run(args) -> int:
     first = scene.frame  # frames are numbered on from a resumed state
     fps = args.fps if args.fps is not None else default_fps(scene)
     out = output_folder(args, path)
-    exports = Exports(scene, out, args.formats, args.checkpoint_every)
+    exports = Exports(scene, out, args.formats, args.checkpoint_every, resumed=args.resume is not None)
     render = not args.no_render
     renderer = video = None
     frame_dir, video_path = output_paths(args, path)
@@ -364,7 +364,7 @@ class Exports:
     """What `run` writes besides pictures: every frame's particles in the --export formats
     and the states of --checkpoint-every, into the output folder."""
 
-    def __init__(self, scene, out: Path, formats: tuple, every: int | None):
+    def __init__(self, scene, out: Path, formats: tuple, every: int | None, resumed: bool = False):
         self.scene, self.out, self.formats, self.every = scene, out, formats, every
         self.usd = None
         self.written = {}  # what -> [first, last] frame numbers
@@ -374,15 +374,16 @@ class Exports:
         if "usd" in formats:
             from .export import UsdRecorder
 
-            self.usd = UsdRecorder(out / USD_NAME, frame_rate=1.0 / scene.frame_time)
+            # a resumed run continues the layer there (its frames after the state's dropped)
+            self.usd = UsdRecorder(out / USD_NAME, frame_rate=1.0 / scene.frame_time,
+                                   keep_until=scene.frame if resumed else None)
 
     def frame(self):
         from .export import save_frame
-        from .scene.checkpoint import frame_data
 
         number = self.scene.frame
         if self.formats:
-            data = frame_data(self.scene)
+            data = self.scene.frame_data()
             for name in self.formats:
                 if name == "usd":
                     self.usd.add(data)
@@ -508,7 +509,10 @@ def info(args) -> int:
     print(f"tai_coll {tc.__version__}")
     print(f"python {platform.python_version()}, numpy {numpy.__version__}, "
           f"taichi {'.'.join(map(str, ti.__version__))}, trimesh {version('trimesh')}, "
-          f"imageio-ffmpeg {version('imageio-ffmpeg')}, tqdm {version('tqdm')}")
+          f"imageio-ffmpeg {version('imageio-ffmpeg')}, tqdm {version('tqdm')}, plyfile {version('plyfile')}")
+    usd = version("usd-core")
+    print(f"usd-core (USD export, the 'usd' extra): "
+          f"{usd if usd != 'not installed' else 'not installed: pip install tai_coll[usd]'}")
     ok = True
     try:
         runtime = tc.init(arch=args.arch)

@@ -351,15 +351,32 @@ class UsdRecorder:
 
     The stage is built in memory; save() writes it (atomically, replacing any file there),
     and leaving a `with` block saves what was added, also when the block raises.
+
+    keep_until (keyword only; an int >= 0, or None): continue the layer already at `path`,
+    as a resumed run does (`tai-coll run --resume`). None: a new layer, as above. An int F:
+    if a file exists at `path` it is read into memory (the file itself is untouched until
+    save()), it must be a layer this class wrote (a /World/particles Points prim; else
+    ValueError) at timeCodesPerSecond == frame_rate (else ValueError), and every time
+    sample after F is dropped from it (particles and bodies, visibility included; a body
+    first seen after F is removed); later add() calls then go on exactly as if this
+    recorder had added the kept frames itself. No file at `path`: a new layer.
     """
 
-    def __init__(self, path, frame_rate: float):
+    def __init__(self, path, frame_rate: float, *, keep_until=None):
         self.path = _check_path(path)
         if format_of(self.path) != "usd":
             raise ValueError(f"path must end in .usd, .usda or .usdc for a USD layer; got {os.fspath(path)!r}")
         self.frame_rate = validate.real("frame_rate", frame_rate, low=0.0, low_open=True, stored=False)
+        if keep_until is not None:
+            keep_until = validate.integer("keep_until", keep_until, low=0)
+        self.keep_until = keep_until
         _, Usd, UsdGeom, _ = _pxr()
         self.stage = Usd.Stage.CreateInMemory()
+        self._times = set()  # time codes added
+        self._bodies = []  # per body: [transform op, time codes where present, time codes with visibility]
+        if keep_until is not None and self.path.exists():
+            self._continue(keep_until)
+            return
         UsdGeom.SetStageMetersPerUnit(self.stage, 1.0)
         UsdGeom.SetStageUpAxis(self.stage, UsdGeom.Tokens.y)
         self.stage.SetTimeCodesPerSecond(self.frame_rate)
@@ -367,8 +384,103 @@ class UsdRecorder:
         self.stage.SetDefaultPrim(UsdGeom.Xform.Define(self.stage, "/World").GetPrim())
         self.particles = UsdGeom.Points.Define(self.stage, "/World/particles")
         self.particles.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
-        self._times = set()  # time codes added
-        self._bodies = []  # per body: [transform op, time codes where present, time codes with visibility]
+
+    def _continue(self, keep_until: int) -> None:
+        """Load the layer at self.path into the in-memory stage, drop its time samples after
+        keep_until and rebuild _times and _bodies from what is left (see __init__)."""
+        from pxr import Sdf, Tf
+
+        _, _, UsdGeom, _ = _pxr()
+        where = os.fspath(self.path)
+
+        def refuse(why):
+            return ValueError(f"cannot continue the USD layer {where!r} (keep_until={keep_until}): {why}")
+
+        try:
+            source = Sdf.Layer.OpenAsAnonymous(where)
+        except Tf.ErrorException as error:
+            raise refuse(f"USD cannot read it ({str(error).strip()})") from None
+        if source is None:
+            raise refuse("USD cannot read it")
+        particles = source.GetPrimAtPath("/World/particles")
+        if particles is None or particles.typeName != "Points":
+            raise refuse("it has no /World/particles Points prim, so it is not a layer UsdRecorder wrote")
+        rate = source.timeCodesPerSecond
+        if not np.isclose(rate, self.frame_rate, rtol=1e-9, atol=0.0):
+            raise refuse(f"its timeCodesPerSecond is {rate!r}, not this recorder's frame_rate {self.frame_rate!r}")
+
+        layer = self.stage.GetRootLayer()
+        layer.TransferContent(source)
+        del source
+        # every time sample after keep_until, on every attribute of the layer
+        attributes = []
+        layer.Traverse(Sdf.Path.absoluteRootPath,
+                       lambda path: attributes.append(path) if path.IsPropertyPath() else None)
+        with Sdf.ChangeBlock():
+            for path in attributes:
+                times = layer.ListTimeSamplesForPath(path)
+                for t in times:
+                    if t > keep_until:
+                        layer.EraseTimeSample(path, t)
+                spec = layer.GetAttributeAtPath(path)
+                if times and not layer.GetNumTimeSamplesForPath(path) and spec and not spec.HasDefaultValue() \
+                        and set(spec.ListInfoKeys()) <= {"typeName", "custom", "variability"}:
+                    spec.owner.RemoveProperty(spec)  # samples only, all after keep_until: not authored yet
+        # the rest as __init__ sets it for a new layer (the same values in a layer it wrote)
+        UsdGeom.SetStageMetersPerUnit(self.stage, 1.0)
+        UsdGeom.SetStageUpAxis(self.stage, UsdGeom.Tokens.y)
+        self.stage.SetTimeCodesPerSecond(self.frame_rate)
+        self.stage.SetFramesPerSecond(self.frame_rate)
+        self.stage.SetDefaultPrim(self.stage.GetPrimAtPath("/World"))
+        self.particles = UsdGeom.Points(self.stage.GetPrimAtPath("/World/particles"))
+
+        # every add() authors the points: their time codes are the frames added
+        self._times = {float(t) for t in self.particles.GetPointsAttr().GetTimeSamples()}
+        bodies = []  # body_0, body_1, ... as _define_body named them
+        while self.stage.GetPrimAtPath(f"/World/bodies/body_{len(bodies)}"):
+            bodies.append(self.stage.GetPrimAtPath(f"/World/bodies/body_{len(bodies)}"))
+        transforms = [prim.GetAttribute("xformOp:transform") for prim in bodies]  # _define_body's op
+        # a body is defined by the first frame that has it; one that no kept frame has, this
+        # recorder would not have made yet (a body k + 1 only comes with a body k)
+        kept = [bool(attribute and attribute.GetNumTimeSamples()) for attribute in transforms]
+        count = kept.index(False) if False in kept else len(kept)
+        if any(kept[count:]):
+            raise refuse(f"body_{count} has no transform sample up to frame {keep_until} but "
+                         f"body_{kept.index(True, count)} has; UsdRecorder adds bodies in order")
+        for prim in reversed(bodies[count:]):
+            self.stage.RemovePrim(prim.GetPath())
+        ops = [UsdGeom.XformOp(attribute) for attribute in transforms[:count]]
+        for prim, op in zip(bodies, ops):
+            if op.GetOpType() != UsdGeom.XformOp.TypeTransform or not any(
+                    op.GetName() == other.GetName() for other in UsdGeom.Xformable(prim).GetOrderedXformOps()):
+                raise refuse(f"{prim.GetPath()} does not use its xformOp:transform, so it is not a body "
+                             f"UsdRecorder wrote")
+        scope = self.stage.GetPrimAtPath("/World/bodies")
+        if scope and not count and not scope.GetAllChildren():
+            self.stage.RemovePrim(scope.GetPath())  # made with the first body
+        for op in ops:
+            imageable = UsdGeom.Imageable(op.GetAttr().GetPrim())
+            visibility = imageable.GetVisibilityAttr()
+            shown = {float(t): visibility.Get(t) for t in visibility.GetTimeSamples()}
+            sampled = {float(t) for t in op.GetTimeSamples()}
+            # where visibility was authored it says whether the body was there (a frame added
+            # again without it keeps its old transform sample); elsewhere the transform does
+            present = {t for t in self._times
+                       if (shown[t] != UsdGeom.Tokens.invisible if t in shown else t in sampled)}
+            if present == self._times:  # there in every kept frame: as if it had never been missing
+                if visibility.IsAuthored():
+                    imageable.GetPrim().RemoveProperty(visibility.GetName())
+                done = set()
+            else:
+                done = set(shown) & self._times
+            self._bodies.append([op, present, done])
+        self._author_visibility()  # visibility where a kept frame lacks it (none in a layer this class wrote)
+        if self._times:
+            self.stage.SetStartTimeCode(min(self._times))
+            self.stage.SetEndTimeCode(max(self._times))
+        else:  # nothing kept: no range, as a new layer before its first add()
+            layer.ClearStartTimeCode()
+            layer.ClearEndTimeCode()
 
     @property
     def time_codes(self) -> list:

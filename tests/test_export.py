@@ -411,3 +411,228 @@ def test_an_empty_frame_writes_a_valid_file(tmp_path, ext):
     else:
         points, widths, velocities, ids = usd_points(path, 2)
         assert points.shape == (0, 3) and widths.size == velocities.size == ids.size == 0
+
+
+# ---------------------------------------------------------------------- USD: continuing a layer (--resume)
+def open_fresh(path):
+    """A stage of the file as it is on disk now (an anonymous copy: never a layer cached
+    from an earlier open of the same path)."""
+    from pxr import Sdf, Usd
+
+    return Usd.Stage.Open(Sdf.Layer.OpenAsAnonymous(str(path)))
+
+
+def first_run():
+    """Frames 0..5: a ball from frame 2 on, a crate only in frame 5."""
+    ball, crate = tc.Sphere(radius=0.1), tc.Box(half_extents=(0.1, 0.2, 0.3))
+    return [make_frame(3 + k, frame=k, seed=k,
+                       bodies=([pose(ball, seed=20 + k)] if k >= 2 else []) + ([pose(crate, seed=40)] if k == 5 else []))
+            for k in range(6)]
+
+
+def second_run():
+    """Frames 4..6 of the resumed run, unlike the first run's 4 and 5: the ball is missing from
+    frame 5, and frame 6 brings a second body of another shape."""
+    ball, drum = tc.Sphere(radius=0.1), tc.Cylinder(radius=0.2, half_height=0.3)
+    bodies = {4: [pose(ball, seed=54)], 5: [], 6: [pose(ball, seed=56), pose(drum, seed=66)]}
+    return [make_frame(9 - k, frame=k, seed=100 + k, first_id=7, bodies=bodies[k]) for k in (4, 5, 6)]
+
+
+def recorded(path, frames, **kwargs):
+    recorder = UsdRecorder(path, FPS, **kwargs)
+    for frame in frames:
+        recorder.add(frame)
+    recorder.save()
+    return recorder
+
+
+@pytest.mark.parametrize("name", ["run.usda", "run.usdc", "run.usd"])
+def test_a_recorder_continues_a_layer_after_keep_until(tmp_path, name):
+    pytest.importorskip("pxr")
+    from pxr import Gf, UsdGeom
+
+    path = tmp_path / name
+    first, second = first_run(), second_run()
+    recorded(path, first)
+    before = path.read_bytes()
+
+    recorder = UsdRecorder(path, FPS, keep_until=3)
+    assert recorder.time_codes == [0.0, 1.0, 2.0, 3.0]
+    for frame in second:
+        recorder.add(frame)
+    assert path.read_bytes() == before  # nothing on disk changes until save()
+    assert recorder.save() == path
+    assert recorder.time_codes == [float(t) for t in range(7)]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+    stage = open_fresh(path)
+    assert (stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (0.0, 6.0)
+    assert stage.GetTimeCodesPerSecond() == FPS and stage.GetFramesPerSecond() == FPS
+    assert stage.GetDefaultPrim().GetPath() == "/World"
+    particles = UsdGeom.Points(stage.GetPrimAtPath("/World/particles"))
+    for attribute in (particles.GetPointsAttr(), particles.GetWidthsAttr(), particles.GetVelocitiesAttr(),
+                      particles.GetIdsAttr(), particles.GetExtentAttr()):
+        assert attribute.GetTimeSamples() == [float(t) for t in range(7)], attribute.GetName()
+    for frame in first[:4] + second:  # 0..3 from the first run, 4..6 from the second
+        t = frame.frame
+        np.testing.assert_allclose(np.array(particles.GetPointsAttr().Get(t)), frame.positions, rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(np.array(particles.GetWidthsAttr().Get(t)), 2.0 * frame.radii, rtol=1e-6)
+        np.testing.assert_allclose(np.array(particles.GetVelocitiesAttr().Get(t)), frame.velocities,
+                                   rtol=1e-6, atol=1e-7)
+        np.testing.assert_array_equal(np.array(particles.GetIdsAttr().Get(t)), frame.ids)
+
+    ball, drum = (stage.GetPrimAtPath(f"/World/bodies/body_{k}") for k in (0, 1))
+    # the crate of the first run's frame 5 is gone; body_1 is the second run's drum
+    assert stage.GetPrimAtPath("/World/bodies/body_1/shape").GetTypeName() == "Cylinder"
+    ball_op, drum_op = (UsdGeom.Xformable(p).GetOrderedXformOps() for p in (ball, drum))
+    assert len(ball_op) == len(drum_op) == 1
+    assert ball_op[0].GetTimeSamples() == [2.0, 3.0, 4.0, 6.0]
+    assert drum_op[0].GetTimeSamples() == [6.0]
+    sources = {0: None, 1: None, 2: first[2], 3: first[3], 4: second[0], 5: None, 6: second[2]}
+    for t, frame in sources.items():
+        if frame is not None:
+            local = ball_op[0].GetOpTransform(t)
+            expected = export.usd_matrix(frame.bodies[0].shape_rotation, frame.bodies[0].shape_center)
+            assert Gf.IsClose(local, expected, 1e-12), t
+    seen = [UsdGeom.Imageable(ball).ComputeVisibility(t) for t in range(7)]
+    assert seen == ["invisible", "invisible", "inherited", "inherited", "inherited", "invisible", "inherited"]
+    assert UsdGeom.Imageable(ball).GetVisibilityAttr().GetTimeSamples() == [float(t) for t in range(7)]
+    seen = [UsdGeom.Imageable(drum).ComputeVisibility(t) for t in range(7)]
+    assert seen == ["invisible"] * 6 + ["inherited"]
+
+
+def test_a_continued_layer_is_the_layer_one_recorder_would_have_written(tmp_path):
+    pytest.importorskip("pxr")
+    first, second = first_run(), second_run()
+    recorded(tmp_path / "resumed.usda", first)
+    recorded(tmp_path / "resumed.usda", second, keep_until=3)
+    recorded(tmp_path / "straight.usda", first[:4] + second)
+    assert (tmp_path / "resumed.usda").read_text() == (tmp_path / "straight.usda").read_text()
+
+
+@pytest.mark.parametrize("keep_until, kept", [(0, [0.0]), (1, [0.0, 1.0]), (4, [0.0, 1.0, 2.0, 3.0, 4.0]),
+                                              (5, [float(t) for t in range(6)]), (99, [float(t) for t in range(6)])])
+def test_keep_until_keeps_what_one_recorder_adding_those_frames_would_have(tmp_path, keep_until, kept):
+    pytest.importorskip("pxr")
+    first = first_run()
+    recorded(tmp_path / "run.usda", first)
+    resumed = recorded(tmp_path / "run.usda", [], keep_until=keep_until)
+    assert resumed.time_codes == kept
+    # a body present in every kept frame gets no visibility samples; one first seen later is not there
+    recorded(tmp_path / "straight.usda", first[:len(kept)])
+    assert (tmp_path / "run.usda").read_text() == (tmp_path / "straight.usda").read_text()
+    # and it goes on like one: a frame added again replaces the kept one
+    again = make_frame(4, frame=int(kept[-1]), seed=77, bodies=[pose(tc.Sphere(radius=0.1), seed=78)])
+    recorded(tmp_path / "run.usda", [again], keep_until=keep_until)
+    recorded(tmp_path / "straight.usda", first[:len(kept)] + [again])
+    assert (tmp_path / "run.usda").read_text() == (tmp_path / "straight.usda").read_text()
+
+
+def test_keep_until_refuses_a_layer_at_another_rate_or_not_its_own_and_leaves_it(tmp_path):
+    pytest.importorskip("pxr")
+    from pxr import Usd, UsdGeom
+
+    path = tmp_path / "run.usdc"
+    with UsdRecorder(path, 30.0) as recorder:
+        for k in range(3):
+            recorder.add(dataclasses.replace(make_frame(2, frame=k), frame_rate=30.0))
+    before = path.read_bytes()
+    with pytest.raises(ValueError, match=r"cannot continue the USD layer '.*run\.usdc'.*timeCodesPerSecond is 30\.0, "
+                                         r"not this recorder's frame_rate 24\.0"):
+        UsdRecorder(path, FPS, keep_until=1)
+    assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["run.usdc"]
+
+    foreign = tmp_path / "other.usda"
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.Xform.Define(stage, "/World/particles")  # not Points
+    stage.GetRootLayer().Export(str(foreign))
+    text = foreign.read_text()
+    with pytest.raises(ValueError, match=r"'.*other\.usda'.*no /World/particles Points prim"):
+        UsdRecorder(foreign, FPS, keep_until=1)
+    garbage = tmp_path / "garbage.usda"
+    garbage.write_text("not a layer")
+    with pytest.raises(ValueError, match=r"'.*garbage\.usda'.*USD cannot read it"):
+        UsdRecorder(garbage, FPS, keep_until=1)
+    assert foreign.read_text() == text and garbage.read_text() == "not a layer"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["garbage.usda", "other.usda", "run.usdc"]
+    # without keep_until the file is not read: a new layer replaces it at save()
+    UsdRecorder(garbage, FPS).save()
+    stage = open_fresh(garbage)
+    assert stage.GetPrimAtPath("/World/particles").IsA(UsdGeom.Points)
+
+
+def test_keep_until_without_a_file_starts_a_new_layer(tmp_path):
+    pytest.importorskip("pxr")
+    frames = first_run()[:3]
+    recorder = recorded(tmp_path / "resumed.usda", frames, keep_until=3)
+    assert recorder.time_codes == [0.0, 1.0, 2.0]
+    recorded(tmp_path / "new.usda", frames)
+    assert (tmp_path / "resumed.usda").read_text() == (tmp_path / "new.usda").read_text()
+
+
+@pytest.mark.parametrize("value, error, message", [
+    (-1, ValueError, "keep_until must be >= 0; got -1"),
+    (3.0, TypeError, "keep_until must be an integer; got 3.0"),
+    ("3", TypeError, "keep_until must be an integer; got '3'"),
+    (True, TypeError, "keep_until must be an integer; got True"),
+])
+def test_bad_keep_until_is_refused(tmp_path, value, error, message):
+    pytest.importorskip("pxr")
+    recorded(tmp_path / "run.usda", first_run())
+    before = (tmp_path / "run.usda").read_bytes()
+    with pytest.raises(error, match=message):
+        UsdRecorder(tmp_path / "run.usda", FPS, keep_until=value)
+    with pytest.raises(TypeError):
+        UsdRecorder(tmp_path / "run.usda", FPS, 3)  # keyword only
+    assert (tmp_path / "run.usda").read_bytes() == before
+    assert UsdRecorder(tmp_path / "run.usda", FPS, keep_until=np.int64(2)).time_codes == [0.0, 1.0, 2.0]
+
+
+def test_a_body_missing_only_after_keep_until_is_left_with_no_visibility_samples(tmp_path):
+    pytest.importorskip("pxr")
+    from pxr import UsdGeom
+
+    ball = tc.Sphere(radius=0.1)
+    frames = [make_frame(2, frame=k, seed=k, bodies=[pose(ball, seed=k)] if k != 4 else []) for k in range(6)]
+    recorded(tmp_path / "run.usda", frames)
+    recorded(tmp_path / "run.usda", [], keep_until=3)
+    recorded(tmp_path / "straight.usda", frames[:4])
+    assert (tmp_path / "run.usda").read_text() == (tmp_path / "straight.usda").read_text()
+    stage = open_fresh(tmp_path / "run.usda")
+    body = UsdGeom.Imageable(stage.GetPrimAtPath("/World/bodies/body_0"))
+    assert not body.GetVisibilityAttr().IsAuthored()
+    # missing again after the resume: hidden there only
+    resumed = recorded(tmp_path / "run.usda", [make_frame(2, frame=4, seed=9)], keep_until=3)
+    assert resumed.time_codes == [0.0, 1.0, 2.0, 3.0, 4.0]
+    stage = open_fresh(tmp_path / "run.usda")
+    body = UsdGeom.Imageable(stage.GetPrimAtPath("/World/bodies/body_0"))
+    assert [body.ComputeVisibility(t) for t in range(5)] == ["inherited"] * 4 + ["invisible"]
+
+
+def test_keep_until_before_every_recorded_frame_leaves_a_new_layer(tmp_path):
+    pytest.importorskip("pxr")
+    frames = [make_frame(2, frame=k, seed=k, bodies=[pose(tc.Sphere(radius=0.1), seed=k)]) for k in (5, 6)]
+    recorded(tmp_path / "run.usda", frames)
+    assert recorded(tmp_path / "run.usda", [], keep_until=4).time_codes == []
+    UsdRecorder(tmp_path / "new.usda", FPS).save()
+    assert (tmp_path / "run.usda").read_text() == (tmp_path / "new.usda").read_text()
+
+
+def test_a_frame_added_again_without_a_body_stays_without_it_when_continued(tmp_path):
+    pytest.importorskip("pxr")
+    from pxr import UsdGeom
+
+    ball = tc.Sphere(radius=0.1)
+    # frame 2 added again without the ball: its transform sample at 2 stays, hidden there
+    frames = [make_frame(2, frame=k, seed=k, bodies=[pose(ball, seed=k)]) for k in range(5)]
+    frames.append(make_frame(3, frame=2, seed=12))
+    recorded(tmp_path / "run.usda", frames)
+    resumed = recorded(tmp_path / "run.usda", [make_frame(2, frame=4, seed=14, bodies=[pose(ball, seed=4)])],
+                       keep_until=3)
+    assert resumed._bodies[0][1] == {0.0, 1.0, 3.0, 4.0}  # where the ball is
+    recorded(tmp_path / "straight.usda", frames[:4] + frames[5:] + [make_frame(2, frame=4, seed=14,
+                                                                             bodies=[pose(ball, seed=4)])])
+    assert (tmp_path / "run.usda").read_text() == (tmp_path / "straight.usda").read_text()
+    stage = open_fresh(tmp_path / "run.usda")
+    body = UsdGeom.Imageable(stage.GetPrimAtPath("/World/bodies/body_0"))
+    assert [body.ComputeVisibility(t) for t in range(5)] == ["inherited"] * 2 + ["invisible"] + ["inherited"] * 2

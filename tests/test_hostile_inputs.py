@@ -180,6 +180,13 @@ SCENE_CALLS = {
     "set_positions": lambda s: s.set_positions(np.zeros((2, 3))),
     "set_velocities": lambda s: s.set_velocities(np.zeros((2, 3))),
     "set_angular_velocities": lambda s: s.set_angular_velocities(np.zeros((2, 3))),
+    "add_emitter": lambda s: s.add_emitter(tc.Sphere(radius=0.1), rate=10.0),
+    "add_sink": lambda s: s.add_sink(tc.Box()),
+    "ids": lambda s: s.ids(),
+    "frame_data": lambda s: s.frame_data(),
+    "save_frame": lambda s: s.save_frame("never_written.npz"),
+    "save_state": lambda s: s.save_state("never_written.npz"),
+    "load_state": lambda s: s.load_state("never_written.npz"),
     "gravity =": lambda s: setattr(s, "gravity", (0.0, 0.0, 0.0)),
 }
 

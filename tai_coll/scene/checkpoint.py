@@ -45,6 +45,9 @@ SKIP = {
     "lists": {"_args"},
     "springs": {"_packs"},
 }
+#: The collider table's rows for bodies, as the last substep uploaded them (the next substep
+#: reads them before it uploads its own: the count of particles near each body).
+TABLE_BODY_ROWS = ("body", "body_inv_mass", "body_inv_inertia", "body_com", "body_up")
 #: The scene's own attributes a state holds.
 SCENE_FIELDS = ("dt", "substeps", "_time_base", "_substep_count", "_substep_limit", "_watch", "_limits",
                 "_solver_checked", "_solver_warned", "_warned_dropped", "_warned_crushed", "_frame")
@@ -240,6 +243,8 @@ def save_state(scene, path) -> Path:
             "entries": [w.encode(f"colliders.entry{k}", (e.center, e.rotation, e.velocity, e.angular_velocity))
                         for k, e in enumerate(colliders.entries)],
             "warned_turn": [k for k, e in enumerate(colliders.entries) if id(e) in colliders._warned_turn],
+            "body_rows": {name: w.encode(f"colliders.{name}", getattr(colliders, name).to_numpy())
+                          for name in TABLE_BODY_ROWS},
         },
         "bodies": {
             "store": w.encode("bodies.store", dict(bodies.store.state(), supported=bodies.store.supported)),
@@ -307,6 +312,8 @@ def load_state(scene, path):
     colliders._upload_poses(poses0, poses1)
     colliders.version = meta["colliders"]["version"]
     colliders._warned_turn = {id(colliders.entries[k]) for k in meta["colliders"]["warned_turn"]}
+    for name, m in meta["colliders"]["body_rows"].items():
+        getattr(colliders, name).from_numpy(r.decode(m))
     bodies = scene._bodies
     b = meta["bodies"]
     state = r.decode(b["store"])

@@ -4,11 +4,13 @@ particles in a region at a rate, sinks remove the particles whose centre enters 
 Regions are the solid shapes the colliders use (Box, Sphere, Cylinder), read as volumes:
 their pose is where they were built (a region does not move).
 
-An emitter works at the start of each frame: it owes floor(rate (t1 - start)) particles by
-the end t1 of the frame (t1 clipped to its stop), less those it placed or skipped before,
+An emitter works at the start of each substep: it owes floor(rate (t1 - start)) particles by
+the end t1 of the substep (t1 clipped to its stop), less those it placed or skipped before,
 and places each where it overlaps no particle (in the scene or placed just now) and no
 collider, trying random points of the region (ATTEMPTS per particle, from its own seeded
 generator: the same seed, the same particles). What finds no room is skipped and counted.
+The particles it could touch are gathered by a kernel (`Sinks.near`), so the host reads only
+those, not the whole store, every substep.
 
 A sink marks the particles whose centre lies in it after a substep (a kernel: no host
 work per substep); the scene removes the marked ones at the end of the frame, compacting
@@ -21,7 +23,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from .. import validate
+from .. import notices, validate
 from ..geometry.colliders import Box, Cylinder, Sphere
 from ..types import ACTIVE, REMOVED, ParticleArgs, vec3
 
@@ -29,6 +31,9 @@ from ..types import ACTIVE, REMOVED, ParticleArgs, vec3
 ATTEMPTS = 16
 #: Kinds of region in the sinks' table (and the emitters' sampling).
 BOX, SPHERE, CYLINDER = 0, 1, 2
+#: The densest packing of equal spheres (Kepler): no region holds more than this fraction of its
+#: volume in particles, so no more are tried at once (a hostile rate costs no more than a full region).
+DENSEST = np.pi / (3.0 * np.sqrt(2.0))
 #: Candidate points checked against the particles near the region at once (memory: this
 #: many times the nearby particles, in float64).
 CHUNK = 1 << 20
@@ -53,6 +58,14 @@ def _bound(kind: int, size) -> float:
     if kind == SPHERE:
         return float(size[0])
     return float(math.hypot(size[0], size[1]))
+
+
+def _volume(kind: int, size) -> float:
+    if kind == BOX:
+        return 8.0 * float(np.prod(size))
+    if kind == SPHERE:
+        return 4.0 / 3.0 * np.pi * size[0] ** 3
+    return 2.0 * np.pi * size[0] ** 2 * size[1]
 
 
 def _sample(rng: np.random.Generator, kind: int, size, n: int) -> np.ndarray:
@@ -89,17 +102,25 @@ class Emitter:
         self.rng = np.random.default_rng(self.seed)
         self.emitted = 0
         self.skipped = 0
+        # the most particles the region could hold at once (the densest packing, centres in it)
+        self.room = int(DENSEST * _volume(self.kind, self.size) / (4.0 / 3.0 * np.pi * self.radius ** 3)) + 1
+        self.warned = False  # whether the scene warned that it found no room (once)
 
     def __repr__(self):
         return (f"Emitter({type(self.region).__name__}, rate={self.rate:g}/s, radius={self.radius:g}, "
                 f"mass={self.mass:g}, velocity={self.velocity.tolist()}, start={self.start:g}, stop={self.stop}, "
                 f"max_particles={self.max_particles}, seed={self.seed})")
 
+    def finished(self, t: float) -> bool:
+        """Whether it will emit nothing after time t."""
+        return ((self.stop is not None and t >= self.stop)
+                or (self.max_particles is not None and self.emitted >= self.max_particles))
+
     def owed(self, t1: float) -> int:
         """Particles due by time t1 and not yet placed or skipped."""
         end = t1 if self.stop is None else min(t1, self.stop)
         due = self.rate * max(end - self.start, 0.0)
-        due = math.floor(due + 1e-9 * max(1.0, due))  # (rate * time may land a hair below a whole number)
+        due = math.floor(due + max(1e-9, 1e-12 * due))  # (rate * time may land a hair below a whole number)
         owed = max(due - self.emitted - self.skipped, 0)
         if self.max_particles is not None:
             owed = min(owed, self.max_particles - self.emitted)
@@ -110,7 +131,8 @@ class Emitter:
         at x (radii r) nor each other nor any collider entry; counts what found no room."""
         if owed <= 0:
             return np.zeros((0, 3))
-        local = _sample(self.rng, self.kind, self.size, owed * ATTEMPTS)
+        tried = min(owed, self.room)  # (more than the region holds cannot fit: skipped untried)
+        local = _sample(self.rng, self.kind, self.size, tried * ATTEMPTS)
         points = self.center + local @ self.rotation.T
         ok = self._clear_of_colliders(points, colliders)
         if len(x):
@@ -121,7 +143,7 @@ class Emitter:
             for lo in range(0, len(points), step):
                 d2 = np.sum((points[lo:lo + step, None, :] - x_near[None]) ** 2, axis=2)
                 ok[lo:lo + step] &= np.all(d2 >= (r_near[None] + self.radius) ** 2, axis=1)
-        placed = np.empty((owed, 3))
+        placed = np.empty((tried, 3))
         count = 0
         gap2 = (2.0 * self.radius) ** 2
         for p in points[ok]:
@@ -129,7 +151,7 @@ class Emitter:
                 continue
             placed[count] = p
             count += 1
-            if count == owed:
+            if count == tried:
                 break
         self.emitted += count
         self.skipped += owed - count
@@ -139,8 +161,11 @@ class Emitter:
         """Whether a particle centred at each point is clear of every collider entry at its
         current pose (the query takes the shape's own pose: points go to its frame)."""
         ok = np.ones(len(points), dtype=bool)
+        reach = _bound(self.kind, self.size) + self.radius
         for entry in colliders:
             shape = entry.shape
+            if np.linalg.norm(entry.center - self.center) > reach + shape.params[shape.BOUND_SLOT]:
+                continue  # (its bounding sphere is out of the region's reach)
             rest = shape.center + ((points - entry.center) @ entry.rotation) @ shape.rotation.T
             ok &= shape.signed_distance(rest) >= self.radius
         return ok
@@ -154,13 +179,53 @@ class Emitter:
         self.rng.bit_generator.state = state["rng"]
 
 
+def emit(emitters, store, sinks, colliders, t1: float, dt: float):
+    """Each emitter's particles due by time t1 (the end of the substep of dt seconds), placed
+    clear of the particles there are (any status; `sinks.near` gathers those within reach)
+    and of the colliders (entries at their poses now), appended to the store."""
+    for k, emitter in enumerate(emitters):
+        owed = emitter.owed(t1)
+        if not owed:
+            continue
+        x, r = sinks.near(store, emitter)
+        new = emitter.place(owed, x, r, colliders)
+        if emitter.skipped and not emitter.warned:
+            emitter.warned = True
+            notices.warn(
+                f"emitter {k} ({type(emitter.region).__name__}, {emitter.rate:g} particles/s) found no room for "
+                f"{emitter.skipped} particle(s) by t = {t1:.6g} s: its region holds at most about {emitter.room:,} of "
+                f"radius {emitter.radius:g} m and must take {emitter.rate * dt:.3g} a substep besides the particles "
+                "already there (and stay clear of colliders). The count goes on in emitter.skipped "
+                "(stats()['emission_skipped']); a larger region, a lower rate or a faster velocity out of it emits "
+                "them all", RuntimeWarning)
+        n = len(new)
+        if n:  # (placed clear of everything: no overlap allowances to look for)
+            store.add(new, np.tile(emitter.velocity, (n, 1)), np.full(n, emitter.mass), np.full(n, emitter.radius),
+                      placed=False)
+
+
+def remove_marked(store, sinks, pairs):
+    """The particles the sinks marked this frame leave the store (ids not reused); the pair
+    solver's springs follow the compaction."""
+    keep = store.flags.to_numpy()[: store.count] != REMOVED
+    if keep.all():
+        return
+    order, n = store.compact(keep)
+    if pairs is not None:
+        pairs.compacted(order, n, store)
+    sinks.removed += int(keep.size - n)
+
+
 class Sinks:
-    """The scene's sinks: a table of regions on the device and the count removed."""
+    """The scene's sinks: a table of regions on the device and the count removed; and the
+    work arrays emitters gather nearby particles into (`near`)."""
 
     def __init__(self):
         self.regions = []
         self.table = None
         self.removed = 0  # particles removed since the scene was built
+        self._near = None  # (x, r) rows of the particles near an emitter (see near)
+        self._found = None
 
     def __len__(self):
         return len(self.regions)
@@ -174,9 +239,43 @@ class Sinks:
         self.table.from_numpy(rows.astype(self.table.to_numpy().dtype))
         return row
 
+    def near(self, particles, emitter) -> tuple:
+        """(x (K, 3), r (K,)) float64 of the particles (any status) that a new particle of
+        `emitter` could touch anywhere in its region, in no particular order."""
+        if not particles.count:
+            return np.zeros((0, 3)), np.zeros(0)
+        if self._near is None or self._near.shape[0] < particles.capacity:
+            self._near = ti.Vector.ndarray(4, float, shape=particles.capacity)
+            self._found = ti.ndarray(ti.i32, shape=1)
+        self._found.fill(0)
+        reach = _bound(emitter.kind, emitter.size) + emitter.radius
+        _gather_near(particles.args, vec3(*emitter.center), reach, self._found, self._near)
+        k = int(self._found[0])
+        if not k:
+            return np.zeros((0, 3)), np.zeros(0)
+        head = ti.Vector.ndarray(4, float, shape=k)  # (the k rows alone cross to the host)
+        _copy_head(self._near, head)
+        rows = head.to_numpy().astype(np.float64)
+        return rows[:, :3], rows[:, 3]
+
     def mark(self, particles):
         """Flag the active particles whose centre lies in a sink REMOVED (a kernel)."""
         _mark(particles.args, self.table, len(self.regions))
+
+
+@ti.kernel
+def _gather_near(particles: ParticleArgs, center: vec3, reach: float, found: ti.types.ndarray(), near: ti.types.ndarray()):
+    for i in range(particles.count):
+        p = particles.x[i]
+        r = particles.radius[i]
+        if (p - center).norm() <= reach + r:
+            near[ti.atomic_add(found[0], 1)] = ti.Vector([p[0], p[1], p[2], r])
+
+
+@ti.kernel
+def _copy_head(rows: ti.types.ndarray(), head: ti.types.ndarray()):
+    for k in range(head.shape[0]):
+        head[k] = rows[k]
 
 
 @ti.kernel

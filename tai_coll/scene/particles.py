@@ -56,6 +56,27 @@ def _permute_spin(order: ti.types.ndarray(), n: ti.i32, w: ti.types.ndarray(),
 
 
 @ti.kernel
+def _append(x: ti.types.ndarray(), v: ti.types.ndarray(), mass: ti.types.ndarray(), radius: ti.types.ndarray(),
+            flags: ti.types.ndarray(), allowance: ti.types.ndarray(), rest: ti.types.ndarray(),
+            anchor: ti.types.ndarray(), ids: ti.types.ndarray(), start: ti.i32, first_id: ti.i32,
+            new_x: ti.types.ndarray(), new_v: ti.types.ndarray(), new_mass: ti.types.ndarray(),
+            new_radius: ti.types.ndarray()):
+    """Slots start.. get the new particles: active, no allowance, awake, anchored where they are."""
+    for k in range(new_x.shape[0]):
+        i = start + k
+        p = ti.Vector([new_x[k, 0], new_x[k, 1], new_x[k, 2]])
+        x[i] = p
+        v[i] = ti.Vector([new_v[k, 0], new_v[k, 1], new_v[k, 2]])
+        mass[i] = new_mass[k]
+        radius[i] = new_radius[k]
+        flags[i] = ACTIVE
+        allowance[i] = 0.0
+        rest[i] = 0.0
+        anchor[i] = p
+        ids[i] = first_id + k
+
+
+@ti.kernel
 def _copy_into(target: ti.types.ndarray(), start: ti.i32, source: ti.types.ndarray()):
     for k in range(source.shape[0]):
         target[start + k] = source[k]
@@ -201,9 +222,10 @@ class ParticleStore:
         staged.from_numpy(np.ascontiguousarray(values, dtype=_numpy_dtype(array)))
         _copy_into(array, start, staged)
 
-    def add(self, x, v, mass, radius) -> slice:
+    def add(self, x, v, mass, radius, *, placed: bool = True) -> slice:
         """Append validated host arrays, each particle with the next id; returns the slice
-        of the new particles in public order."""
+        of the new particles in public order. placed False: they overlap nothing (an
+        emitter's), so the pair solver need not look for overlap to give them allowances."""
         n = len(x)
         if self.next_id + n > MAX_IDS:
             raise ValueError(f"positions: this scene has given out {self.next_id:,} particle ids; {n:,} more would "
@@ -211,14 +233,17 @@ class ParticleStore:
         if self.count + n > self.capacity:
             self._allocate(max(2 * self.capacity, self.count + n))
         start = self.count
-        self._write_range("ids", start, np.arange(self.next_id, self.next_id + n, dtype=np.int32))
+        if n:  # one launch (an emitter adds a few particles every substep)
+            dtype = _numpy_dtype(self.x)
+            _append(self.x, self.v, self.mass, self.radius, self.flags, self.allowance, self.rest, self.anchor,
+                    self.ids, start, self.next_id, np.ascontiguousarray(x, dtype=dtype),
+                    np.ascontiguousarray(v, dtype=dtype), np.ascontiguousarray(mass, dtype=dtype),
+                    np.ascontiguousarray(radius, dtype=dtype))
+            self.version += 1
+            self.edits += 1
         self.next_id += n
         self._slots_host = None
-        for name, values in (("x", x), ("v", v), ("mass", mass), ("radius", radius),
-                             ("flags", np.zeros(n, dtype=np.int32)), ("allowance", np.zeros(n)),
-                             ("rest", np.zeros(n)), ("anchor", x)):
-            self._write_range(name, start, values)
-        if n:
+        if n and placed:
             self.placed_from = start if self.placed_from is None else min(self.placed_from, start)
         if self.w is not None:
             self._write_range("w", start, np.zeros_like(x))
@@ -230,6 +255,15 @@ class ParticleStore:
             lightest, heaviest = self.mass_range
             self.mass_range = (min(lightest, float(np.min(mass))), max(heaviest, float(np.max(mass))))
         return slice(start, start + n)
+
+    def expect(self, mass: float, radius: float):
+        """Particles of this mass and radius will be added (an emitter's): the bounds that
+        grids, substep choices and solver checks read (max_radius, min_radius, mass_range)
+        take them in now, before the first of them arrives in the middle of a frame."""
+        self.max_radius = max(self.max_radius, float(radius))
+        self.min_radius = min(self.min_radius, float(radius))
+        lightest, heaviest = self.mass_range
+        self.mass_range = (min(lightest, float(mass)), max(heaviest, float(mass)))
 
     def clearances_hold(self, table) -> bool:
         """Whether the kept clearances still describe the particles against the collider

@@ -17,10 +17,10 @@ from ..neighbors.hash_grid import NEIGHBOUR_CAPACITY
 from ..response.repulsion import RepulsionField
 from ..solvers import ImpulseSolver, Solver, World
 from ..solvers.pairs import PairSettings, ParticleCollisions
-from ..types import REMOVED, STATUS_NAMES
+from ..types import STATUS_NAMES
 from . import checkpoint
 from .colliders import ColliderEntry, ColliderTable
-from .emitters import Emitter, Sinks
+from .emitters import Emitter, Sinks, emit, remove_marked
 from .motion import make_motion
 from .particles import ParticleStore
 from .stepping import DEFAULT_SUBSTEPS, DIVERGED_FACTOR, DIVERGED_SPEED, SubstepChoice
@@ -174,6 +174,8 @@ class Scene:
         emitter = Emitter(region, rate=rate, velocity=velocity, radius=radius, mass=mass, start=start, stop=stop,
                           max_particles=max_particles, seed=seed)
         self._emitters.append(emitter)
+        self._particles.expect(emitter.mass, emitter.radius)  # (grids, substeps and the solver's check see them coming)
+        self._solver_checked = None
         return emitter
 
     def add_sink(self, region) -> None:
@@ -252,19 +254,21 @@ class Scene:
         frames = validate.integer("frames", frames, low=0)
         kinematic = self._colliders.has_kinematic
         sinks = len(self._sinks) > 0
+        emitting = bool(self._emitters)
         for _ in range(frames):
-            if self._emitters:
-                self._emit()
             self._check_solver()
             if self._stepping.auto:
                 self._choose_substeps()
             world = self._world
             bodies = self._bodies if self._bodies.count else None
-            pairs = self._pairs is not None and self._particles.count
-            if pairs or kinematic or sinks:
+            if self._pairs is not None or kinematic or sinks or emitting:
                 # Particles interact, colliders move (bodies among them: new poses before every
-                # substep) or sinks take particles: every substep is its own sequence of phases.
+                # substep), particles enter or leave: every substep is its own sequence of phases.
                 for _ in range(self.substeps):
+                    if emitting:  # (particles due by the substep's end)
+                        emit(self._emitters, self._particles, self._sinks, self._colliders.entries, self.time + self.dt,
+                             self.dt)
+                    pairs = self._pairs is not None and self._particles.count
                     if kinematic:
                         self._colliders.advance(self.time, self.dt)
                     if bodies is not None:
@@ -284,38 +288,9 @@ class Scene:
             if bodies is not None:
                 self._colliders.commit_poses()  # the table at the bodies' poses between frames
             if sinks:
-                self._remove_marked()
+                remove_marked(self._particles, self._sinks, self._pairs)
             self._frame += 1
             self._check_health()
-
-    def _emit(self):
-        """Each emitter's particles due by the end of this frame (emitters.py), placed clear
-        of the particles there are (any status) and of the colliders at their poses now."""
-        store = self._particles
-        t1 = self.time + self.frame_time
-        for emitter in self._emitters:
-            owed = emitter.owed(t1)
-            if not owed:
-                continue
-            # storage order: the placement only needs where particles are, not which
-            x = store.x.to_numpy()[: store.count].astype(np.float64)
-            r = store.radius.to_numpy()[: store.count].astype(np.float64)
-            new = emitter.place(owed, x, r, self._colliders.entries)
-            if len(new):
-                n = len(new)
-                store.add(new, np.tile(emitter.velocity, (n, 1)), np.full(n, emitter.mass), np.full(n, emitter.radius))
-
-    def _remove_marked(self):
-        """The particles the sinks marked this frame leave the store (ids not reused)."""
-        store = self._particles
-        keep = store.flags.to_numpy()[: store.count] != REMOVED
-        if keep.all():
-            return
-        removed = int(keep.size - np.count_nonzero(keep))
-        order, n = store.compact(keep)
-        if self._pairs is not None:
-            self._pairs.compacted(order, n, store)
-        self._sinks.removed += removed
 
     def _check_solver(self):
         """Let the solver look at the scene before it steps (the penalty solver compares dt
@@ -349,6 +324,7 @@ class Scene:
         """substeps="auto": this frame's substeps (SubstepChoice.choose), dt and what set it."""
         limits = self._limits
         speed = self._particles.max_speed() if self.num_particles else 0.0
+        speed = max([speed] + [float(np.linalg.norm(e.velocity)) for e in self._emitters if not e.finished(self.time)])
         n, limit = self._stepping.choose(None if limits is None else limits[0], speed,
                                          self._particles.min_radius, float(np.linalg.norm(self.gravity)))
         if limit == "max_substeps":
@@ -564,6 +540,12 @@ class Scene:
         self._particles.write("x", x)
 
     # ---------------------------------------------------------------- files
+    def frame_data(self) -> export.Frame:
+        """The particles now (positions, velocities, radii, masses, ids), time, frame number,
+        frames per second and the bodies' poses, as exporters take them (tai_coll.export.Frame;
+        tc.UsdRecorder.add)."""
+        return checkpoint.frame_data(self)
+
     def save_frame(self, path) -> None:
         """Write the particles now (and the bodies' poses) to `path`, by its extension:
         .ply (binary; x, y, z, vx, vy, vz, radius, id per vertex), .npz (positions,

@@ -318,10 +318,11 @@ class PenaltySolver(Solver):
 
     def _stiffest(self, world) -> params.ContactParams | None:
         """The contact with the smallest characteristic time: the lightest particle's, or with
-        DEM pairs the two lightest particles' (reduced mass m / 2)."""
-        if world.particles.count == 0:
+        DEM pairs the two lightest particles' (reduced mass m / 2); the lightest of those added
+        or that emitters will add (ParticleStore.mass_range)."""
+        mass = world.particles.mass_range[0]
+        if not np.isfinite(mass):  # (no particles, none to come)
             return None
-        mass = float(np.min(world.particles.read("mass")))
         return self.contact_params(0.5 * mass if world.pair_contacts else mass)
 
     def _explicit(self, world) -> bool:
