@@ -232,6 +232,9 @@ def test_save_frame_writes_the_same_particles_to_ply_npz_and_usd(tmp_path):
     points = pxr.UsdGeom.Points(stage.GetPrimAtPath("/World/particles"))
     assert np.allclose(np.array(points.GetPointsAttr().Get(2)), scene.positions(), atol=1e-6)
     assert list(points.GetIdsAttr().Get(2)) == [1, 2]
+    assert np.allclose(np.array(points.GetWidthsAttr().Get(2)), 2 * npz["radii"])
+    raw = cloud.metadata["_ply_raw"]["vertex"]["data"]  # (trimesh keeps every vertex property)
+    assert np.array_equal(raw["id"], npz["ids"]) and np.allclose(raw["radius"], npz["radii"])
     with pytest.raises(ValueError, match="extension|path"):
         scene.save_frame(tmp_path / "f.obj")
     assert not (tmp_path / "f.obj").exists()
@@ -282,6 +285,7 @@ def _arrays(scene):
     return out
 
 
+@pytest.mark.filterwarnings("ignore:emitter 0:RuntimeWarning")  # (it skips a few: its counts are state too)
 @pytest.mark.parametrize("build", [_workflow_scene, _dem_scene, _moving_scene])
 def test_twenty_frames_equal_ten_then_a_checkpoint_then_ten_more(build, tmp_path):
     whole = build()

@@ -271,6 +271,7 @@ def save_state(scene, path) -> Path:
         with open(target, "wb") as f:
             np.savez(f, **arrays)
 
+    path.parent.mkdir(parents=True, exist_ok=True)
     export.atomic_write(path, write)
     return path
 
