@@ -569,11 +569,17 @@ class UsdRecorder:
 
 
 def write_usd(path, frame: Frame) -> Path:
-    """A USD layer of one frame (at time code frame.frame), through UsdRecorder."""
+    """A USD layer of one frame (at time code frame.frame), through UsdRecorder. The
+    particles' attributes also get the frame as their default value, so a reader asking
+    without a time code (attr.Get()) sees it too."""
     path = _check_path(path)
     frame = _check_frame(frame)
     recorder = UsdRecorder(path, frame.frame_rate)
     recorder.add(frame)
+    particles = recorder.particles
+    for attribute in (particles.GetPointsAttr(), particles.GetWidthsAttr(), particles.GetVelocitiesAttr(),
+                      particles.GetIdsAttr(), particles.GetExtentAttr()):
+        attribute.Set(attribute.Get(float(frame.frame)))
     return recorder.save()
 
 

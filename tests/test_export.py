@@ -636,3 +636,15 @@ def test_a_frame_added_again_without_a_body_stays_without_it_when_continued(tmp_
     stage = open_fresh(tmp_path / "run.usda")
     body = UsdGeom.Imageable(stage.GetPrimAtPath("/World/bodies/body_0"))
     assert [body.ComputeVisibility(t) for t in range(5)] == ["inherited"] * 2 + ["invisible"] + ["inherited"] * 2
+
+
+def test_a_one_frame_usd_also_holds_the_frame_as_default_values(tmp_path):
+    pxr = pytest.importorskip("pxr")
+    frame = make_frame(6, frame=12)
+    export.save_frame(tmp_path / "one.usd", frame)
+    stage = pxr.Usd.Stage.Open(str(tmp_path / "one.usd"))
+    points = pxr.UsdGeom.Points(stage.GetPrimAtPath("/World/particles"))
+    for time in (pxr.Usd.TimeCode.Default(), 12.0):  # a reader asking with or without a time code
+        assert np.allclose(np.array(points.GetPointsAttr().Get(time)), frame.positions, atol=1e-6)
+        assert np.allclose(np.array(points.GetWidthsAttr().Get(time)), 2 * frame.radii)
+        assert list(points.GetIdsAttr().Get(time)) == frame.ids.tolist()
