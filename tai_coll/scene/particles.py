@@ -150,6 +150,9 @@ class ParticleStore:
         # store and collider table at its last launch) holds.
         self.version = 0
         self.clearance_key = None
+        # the substep map (gravity, dt, the law) of the impulse solver's last launch, whose
+        # fixed points it marked AT_REST in the clearances (solvers/impulse.py)
+        self.rest_map = None
         # `edits` counts the changes of the stored arrays from outside the kernels (writes
         # from the host, growth, permutations): what a step keeps between substeps (the
         # pair solver's neighbour lists) holds only while it is unchanged.

@@ -46,6 +46,10 @@ from .integrate import (flag, flight_path_bound, flight_stays_inside, free_fligh
 # field's kind (0: none, push instead), profile, strength, decay and range.
 last_resort6 = ti.types.vector(6, float)
 
+#: A particle's kept clearance when the last launch found it at a fixed point of its substep
+#: (impulse_substep). Negative, so every other reader takes it for "unknown" and queries.
+AT_REST = -2.0
+
 SIMPLE = 0
 MICRO = 1
 ELASTIC_CONTACT = 2
@@ -281,7 +285,8 @@ def try_free_flight(x0: vec3, v0: vec3, clearance, gravity: vec3, dt, k, use_dom
 
 @ti.kernel
 def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), kinematic: ti.template(),
-                    clearances: ARRAY, reuse_clearance: ti.i32, n_substeps: ti.i32, gravity: vec3, dt: float,
+                    clearances: ARRAY, reuse_clearance: ti.i32, reuse_rest: ti.i32, n_substeps: ti.i32, gravity: vec3,
+                    dt: float,
                     scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
                     last_resort: last_resort6, max_push_speed: float, slop_fraction: float, rest_speed: float,
                     use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
@@ -299,10 +304,13 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
     A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
     still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the same
     in every later substep of the launch, so the particle is done: an exact shortcut, not an
-    approximation (no sleeping thresholds). The state stays in registers between substeps and
-    is written once."""
+    approximation (no sleeping thresholds). Its clearance is then written as AT_REST, and the
+    next launch skips it without reading its state when the host says that launch's substeps
+    are the same map (reuse_rest: the clearances hold, and gravity, dt and the law are those of
+    this launch): a fixed point of the same map stays one. The state stays in registers
+    between substeps and is written once."""
     for i in range(particles.count):
-        if particles.flags[i] == ACTIVE:
+        if particles.flags[i] == ACTIVE and not (reuse_rest and clearances[i] == AT_REST):
             x0 = particles.x[i]
             v0 = particles.v[i]
             clearance = -1.0
@@ -317,6 +325,7 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 clearances[i] = left
             else:
                 status = ACTIVE
+                at_rest = False
                 s = 0
                 while s < n_substeps:
                     if s > 0:  # the clearance may have been renewed by a query
@@ -344,10 +353,13 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                     v0 = v1
                     s += 1
                     if status != ACTIVE or unchanged:
+                        at_rest = unchanged and status == ACTIVE
                         break
                 particles.x[i] = x0
                 particles.v[i] = v0
                 clearances[i] = clearance
+                if at_rest:
+                    clearances[i] = AT_REST
                 if status != ACTIVE:
                     flag(particles, i, status)
 
@@ -546,12 +558,19 @@ class ImpulseSolver(Solver):
         which must keep their current poses for the whole call."""
         store, table = world.particles, world.colliders
         reuse = store.clearances_hold(table)
+        law = self._law(world, dt)
+        # the map one substep applies: particles at a fixed point of it stay there (AT_REST)
+        same_map = (tuple(map(float, world.gravity)), float(dt), self.scheme, self.wet_law, self.max_iterations,
+                    self.elastic_iterations, self.push_fraction, self.max_push_speed, self.slop,
+                    float(law["rest_speed"]), repr(self.last_resort), repr(world.domain))
+        reuse_rest = reuse and store.rest_map == same_map
         store.mark_moved()
         impulse_substep(particles=store.args, colliders=table.args, groups=table.groups,
                         kinematic=table.has_kinematic, clearances=store.clearance,
-                        reuse_clearance=int(reuse), n_substeps=substeps, gravity=vec3(*world.gravity), dt=dt,
-                        **self._law(world, dt))
+                        reuse_clearance=int(reuse), reuse_rest=int(reuse_rest), n_substeps=substeps,
+                        gravity=vec3(*world.gravity), dt=dt, **law)
         store.clearances_written(table)
+        store.rest_map = same_map
 
     def pair_substep(self, world, pairs, dt: float):
         """One substep with particle-particle impulses, the colliders resolved by this solver."""
