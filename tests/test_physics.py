@@ -556,3 +556,35 @@ def test_flight_leaving_the_domain_and_coming_back_within_a_frame_is_caught():
     with pytest.warns(RuntimeWarning, match="left the domain"):
         scene.step(1)
     assert scene.particle_status()[0] == "left_domain"
+
+
+# ---------------------------------------------------------------- particles at rest skipped across launches
+def test_a_particle_at_rest_is_skipped_until_the_substep_changes_and_then_slides_as_the_incline_says():
+    """A particle at a fixed point of its substep is skipped by the next launches
+    (solvers/impulse.py AT_REST) only while that substep is the same map: tilting gravity
+    (an incline of 30 degrees, mu = 0.2 < tan 30) must start it sliding at g (sin - mu cos)."""
+    from tai_coll.solvers.impulse import AT_REST
+
+    scene = make_scene()
+    scene.add_collider(tc.Plane(**FLOOR), material=tc.Material(restitution=0.5, friction=0.2))
+    scene.add_particles(positions=[[0.0, R, 0.0], [0.5, R + 0.05, 0.0]], radius=R)
+    scene.step(60)
+    assert scene._particles.clearance.to_numpy()[0] == AT_REST  # found at rest, and skipped since
+    rest = scene.positions()
+    assert rest[0, 1] == pytest.approx(R, abs=1e-9) and np.all(scene.velocities()[0] == 0.0)
+    scene.step(5)
+    assert np.array_equal(scene.positions(), rest)  # (the second one landed too)
+    scene.gravity = (G * np.sin(THETA), -G * np.cos(THETA), 0.0)  # the floor is now an incline
+    t = 0.5
+    scene.step(frames_for(scene, t))
+    expected = 0.5 * G * (np.sin(THETA) - 0.2 * np.cos(THETA)) * t ** 2
+    assert scene.positions()[0, 0] - rest[0, 0] == pytest.approx(expected, rel=0.01)
+    # a host write ends the skip too: a resting particle pushed slides off (no friction)
+    level = make_scene()
+    level.add_collider(tc.Plane(**FLOOR), material=tc.Material(friction=0.0))
+    level.add_particles(positions=[[0.0, R, 0.0]], radius=R)
+    level.step(10)
+    assert level._particles.clearance.to_numpy()[0] == AT_REST
+    level.set_velocities([[1.0, 0.0, 0.0]])
+    level.step(1)
+    assert level.positions()[0, 0] == pytest.approx(level.frame_time * 1.0, rel=1e-9)
