@@ -29,6 +29,17 @@ vec4 = ti.math.vec4
 ivec3 = ti.math.ivec3
 mat3 = ti.math.mat3
 
+def new_ndarray(dtype, element_shape, shape):
+    """A Taichi ndarray of `shape` items of `dtype` whose elements have `element_shape`:
+    () a scalar, (n,) a vector, (n, m) a matrix (as an existing array's `element_shape`)."""
+    element_shape = tuple(element_shape)
+    if not element_shape:
+        return ti.ndarray(dtype, shape=shape)
+    if len(element_shape) == 1:
+        return ti.Vector.ndarray(element_shape[0], dtype, shape=shape)
+    return ti.Matrix.ndarray(element_shape[0], element_shape[1], dtype, shape=shape)
+
+
 # ---------------------------------------------------------------------------- particle status
 # ParticleStore.flags: what became of a particle.
 ACTIVE = 0

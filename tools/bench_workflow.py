@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
-from tools.bench import machine_info, write_json  # noqa: E402
+from tools.bench import frame_times, machine_info, write_json  # noqa: E402
 
 RADIUS = 0.005
 RATE = 6000.0
@@ -48,15 +48,6 @@ def build(particles: int, emitter: bool) -> tc.Scene:
     return scene
 
 
-def frames_timed(scene: tc.Scene, frames: int) -> float:
-    times = []
-    for _ in range(frames):
-        t0 = time.perf_counter()
-        scene.step()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
-
-
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--particles", type=int, default=100_000)
@@ -72,7 +63,7 @@ def main(argv=None):
     for variant in ("baseline", "emitter"):
         scene = build(args.particles, variant == "emitter")
         scene.step(2)
-        median = frames_timed(scene, args.frames)
+        median = float(np.median(frame_times(scene.step, args.frames)))
         scenes[variant] = scene
         rows.append({"variant": variant, "particles_at_end": scene.num_particles, "median_frame_s": median})
     scene = scenes["emitter"]

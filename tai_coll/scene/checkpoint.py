@@ -31,20 +31,26 @@ import taichi as ti
 from taichi.lang._ndarray import Ndarray
 
 from .. import export, runtime
+from ..types import new_ndarray
 
 FORMAT = "tai_coll.state"
 VERSION = 1
 META_KEY = "__meta__"
 
 #: Attributes of each container left out of a state and reset to None on loading: argument
-#: packs, host caches, work arrays rebuilt on demand, and what is the script's (settings).
-SKIP = {
+#: packs, host caches, work arrays rebuilt on demand.
+RESET = {
     "store": {"_args", "_spin_args", "_slots_host", "_spare", "_w_spare", "_largest"},
-    "pairs": {"_runtime", "settings", "grid", "lists", "springs", "_law", "_load_args"},
+    "pairs": {"_law", "_load_args"},
     "grid": {"_args", "_lists"},
     "lists": {"_args"},
     "springs": {"_packs"},
 }
+#: Attributes left out and left alone: the script's (settings, the runtime) and the
+#: containers saved on their own (the pair solver's grid, lists and springs).
+NOT_STATE = {"pairs": {"_runtime", "settings", "grid", "lists", "springs"}}
+#: Everything a container's capture leaves out.
+SKIP = {name: reset | NOT_STATE.get(name, set()) for name, reset in RESET.items()}
 #: The collider table's rows for bodies, as the last substep uploaded them (the next substep
 #: reads them before it uploads its own: the count of particles near each body).
 TABLE_BODY_ROWS = ("body", "body_inv_mass", "body_inv_inertia", "body_com", "body_up")
@@ -106,14 +112,8 @@ class _Reader:
     def _taichi(self, key: str, dims: int):
         if key not in self._made:
             values = self.arrays[key]
-            dtype = _NUMPY_TO_TI[values.dtype]
-            shape = values.shape[: values.ndim - dims]
-            if dims == 0:
-                array = ti.ndarray(dtype, shape=shape)
-            elif dims == 1:
-                array = ti.Vector.ndarray(values.shape[-1], dtype, shape=shape)
-            else:
-                array = ti.Matrix.ndarray(values.shape[-2], values.shape[-1], dtype, shape=shape)
+            split = values.ndim - dims
+            array = new_ndarray(_NUMPY_TO_TI[values.dtype], values.shape[split:], values.shape[:split])
             array.from_numpy(np.ascontiguousarray(values))
             self._made[key] = array
         return self._made[key]
@@ -139,10 +139,9 @@ class _Reader:
             return {k: self.decode(m) for k, m in value.items()}
         raise ValueError(f"load_state: unknown entry {kind!r}")
 
-    def restore(self, obj, meta: dict, skip=()):
-        for name in skip:
-            if name not in ("_runtime", "settings", "grid", "lists", "springs"):
-                setattr(obj, name, None)
+    def restore(self, obj, meta: dict, reset=()):
+        for name in reset:
+            setattr(obj, name, None)
         for name, m in meta.items():
             setattr(obj, name, self.decode(m))
 
@@ -304,7 +303,7 @@ def load_state(scene, path):
     for name, m in meta["scene"].items():
         setattr(scene, name, r.decode(m))
     scene.gravity = meta["gravity"]  # (wakes particles: the store's rest times come next)
-    r.restore(scene._particles, meta["store"], SKIP["store"])
+    r.restore(scene._particles, meta["store"], RESET["store"])
     colliders = scene._colliders
     for entry, m in zip(colliders.entries, meta["colliders"]["entries"]):
         entry.center, entry.rotation, entry.velocity, entry.angular_velocity = r.decode(m)
@@ -331,10 +330,10 @@ def load_state(scene, path):
     if scene._pairs is not None:
         p = meta["pairs"]
         pairs = scene._pairs
-        r.restore(pairs, p["self"], SKIP["pairs"])
-        r.restore(pairs.grid, p["grid"], SKIP["grid"])
-        r.restore(pairs.lists, p["lists"], SKIP["lists"])
-        r.restore(pairs.springs, p["springs"], SKIP["springs"])
+        r.restore(pairs, p["self"], RESET["pairs"])
+        r.restore(pairs.grid, p["grid"], RESET["grid"])
+        r.restore(pairs.lists, p["lists"], RESET["lists"])
+        r.restore(pairs.springs, p["springs"], RESET["springs"])
 
 
 def frame_data(scene) -> export.Frame:

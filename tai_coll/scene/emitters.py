@@ -23,7 +23,7 @@ import math
 import numpy as np
 import taichi as ti
 
-from .. import notices, validate
+from .. import notices, runtime, validate
 from ..geometry.colliders import Box, Cylinder, Sphere
 from ..types import ACTIVE, REMOVED, ParticleArgs, vec3
 
@@ -128,7 +128,8 @@ class Emitter:
 
     def place(self, owed: int, x: np.ndarray, r: np.ndarray, colliders) -> np.ndarray:
         """World positions of up to `owed` new particles that overlap none of the particles
-        at x (radii r) nor each other nor any collider entry; counts what found no room."""
+        at x (radii r: those within reach of the region, Sinks.near) nor each other nor any
+        collider entry; counts what found no room."""
         if owed <= 0:
             return np.zeros((0, 3))
         tried = min(owed, self.room)  # (more than the region holds cannot fit: skipped untried)
@@ -136,13 +137,10 @@ class Emitter:
         points = self.center + local @ self.rotation.T
         ok = self._clear_of_colliders(points, colliders)
         if len(x):
-            reach = _bound(self.kind, self.size) + self.radius + float(np.max(r))
-            near = np.sum((x - self.center) ** 2, axis=1) <= reach * reach
-            x_near, r_near = x[near], r[near]
-            step = max(CHUNK // max(len(x_near), 1), 1)
+            step = max(CHUNK // len(x), 1)
             for lo in range(0, len(points), step):
-                d2 = np.sum((points[lo:lo + step, None, :] - x_near[None]) ** 2, axis=2)
-                ok[lo:lo + step] &= np.all(d2 >= (r_near[None] + self.radius) ** 2, axis=1)
+                d2 = np.sum((points[lo:lo + step, None, :] - x[None]) ** 2, axis=2)
+                ok[lo:lo + step] &= np.all(d2 >= (r[None] + self.radius) ** 2, axis=1)
         placed = np.empty((tried, 3))
         count = 0
         gap2 = (2.0 * self.radius) ** 2
@@ -222,6 +220,7 @@ class Sinks:
 
     def __init__(self):
         self.regions = []
+        self._rows = []  # (kind, centre, rotation row-major, size) of each region
         self.table = None
         self.removed = 0  # particles removed since the scene was built
         self._near = None  # (x, r) rows of the particles near an emitter (see near)
@@ -231,13 +230,12 @@ class Sinks:
         return len(self.regions)
 
     def add(self, region):
-        row = region_row("region", region)
+        kind, center, rotation, size = region_row("region", region)
         self.regions.append(region)
-        rows = np.array([[k, *c, *R.ravel(), *size] for k, c, R, size in
-                         (region_row("region", r) for r in self.regions)], dtype=np.float64)
+        self._rows.append([kind, *center, *rotation.ravel(), *size])
+        rows = np.array(self._rows, dtype=runtime.float_dtype())
         self.table = ti.ndarray(float, shape=rows.shape)
-        self.table.from_numpy(rows.astype(self.table.to_numpy().dtype))
-        return row
+        self.table.from_numpy(rows)
 
     def near(self, particles, emitter) -> tuple:
         """(x (K, 3), r (K,)) float64 of the particles (any status) that a new particle of

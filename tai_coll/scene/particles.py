@@ -13,7 +13,7 @@ one argument pack (`args`, types.ParticleArgs)."""
 import numpy as np
 import taichi as ti
 
-from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs
+from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs, new_ndarray
 
 #: Ids are kept as int32 on the device (the DEM springs find their partners by id): a store
 #: gives out at most this many in its life.
@@ -80,16 +80,6 @@ def _append(x: ti.types.ndarray(), v: ti.types.ndarray(), mass: ti.types.ndarray
 def _copy_into(target: ti.types.ndarray(), start: ti.i32, source: ti.types.ndarray()):
     for k in range(source.shape[0]):
         target[start + k] = source[k]
-
-
-def _like(array, n: int):
-    """A fresh ndarray of n items of `array`'s element type."""
-    shape = array.element_shape
-    if not shape:
-        return ti.ndarray(array.dtype, shape=n)
-    if len(shape) == 1:
-        return ti.Vector.ndarray(shape[0], array.dtype, shape=n)
-    return ti.Matrix.ndarray(shape[0], shape[1], array.dtype, shape=n)
 
 
 @ti.kernel
@@ -183,9 +173,6 @@ class ParticleStore:
         for name, array in zip(STORED, arrays, strict=True):
             setattr(self, name, array)
 
-    def _quantities(self) -> tuple:
-        return QUANTITIES + (("w",) if self.w is not None else ())
-
     def enable_spin(self):
         """Keep an angular velocity per particle from now on (zero to start with)."""
         if self.w is None:
@@ -221,7 +208,7 @@ class ParticleStore:
         values = np.asarray(values)
         if not len(values):
             return
-        staged = _like(array, len(values))
+        staged = new_ndarray(array.dtype, array.element_shape, len(values))
         staged.from_numpy(np.ascontiguousarray(values, dtype=_numpy_dtype(array)))
         _copy_into(array, start, staged)
 

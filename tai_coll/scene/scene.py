@@ -164,7 +164,7 @@ class Scene:
 
     def add_emitter(self, region, *, rate, velocity=(0.0, 0.0, 0.0), radius=0.005, mass=1.0, start=0.0,
                     stop=None, max_particles=None, seed=0) -> Emitter:
-        """Emit particles (docs/physics.md 8): at the start of every frame, the particles due
+        """Emit particles (docs/physics.md 8): at the start of every substep, the particles due
         by its end at `rate` per second from time `start` (s) until `stop` (None: no end), at
         most `max_particles` in all, each placed at a random point of `region` (a tc.Box,
         tc.Sphere or tc.Cylinder, read as a volume) where it overlaps no particle, no other

@@ -3,8 +3,8 @@ particle keeps the springs of up to HISTORY contacts from one substep to the nex
 
 Two sets of arrays: each substep the force kernel reads last substep's springs from one set
 and writes this substep's, for the contacts touching now, to the other (a contact that ended
-is forgotten), then the sets swap roles. A spring is found again by its partner's public id
-(the store's `ids`), so the springs survive the store's reordering by cell, which moves them
+is forgotten), then the sets swap roles. A spring is found again by its partner's id (the
+store's `ids`), so the springs survive the store's reordering by cell, which moves them
 with their particles (`permute`), and survive particles added (an emitter's) and removed (a
 sink's: `permute` by the store's compaction order; a spring whose partner is gone is not found
 again, and forgotten). Writing particles' state from the host (set_positions, ...) empties
