@@ -27,6 +27,7 @@ from .scene.emitters import Emitter
 from .scene.scene import Scene
 from .solvers import ImpulseSolver, PenaltySolver, Solver
 from .solvers.pairs import PairSettings, ParticleCollisions
+from .sweeps import sweep
 
 __version__ = "0.1.0"
 
@@ -38,4 +39,5 @@ __all__ = [
     "Implicit", "MeshSDF", "bake_mesh",
     "MassProperties", "mass_properties",
     "Emitter", "UsdRecorder",
+    "sweep",
 ]

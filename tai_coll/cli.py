@@ -3,6 +3,8 @@
     tai-coll run SCENE.py [--frames N] [--fps F] [--res WxH] [--out DIR] [--video PATH]
                           [--arch cpu|cuda|vulkan|auto] [--threads N] [--no-render] [--no-frames] [--no-video]
                           [--export ply,npz,usd] [--checkpoint-every N] [--resume STATE]
+    tai-coll sweep SCENE.py --param NAME=V1,V2,... [--param ...] [--frames N] [--out DIR]
+                            [--address HOST:PORT] [--workers K] [--render --res WxH] [--arch ...] [--threads N]
     tai-coll info [--arch ARCH]
     tai-coll bake MESH [...]      (tai_coll.bake: mesh signed-distance grids, when installed)
 
@@ -20,6 +22,12 @@ frames and files on from it. A scene script is a Python file with:
   (camera, color_by, colormap, color_range, ...; width and height are defaults that --res
   overrides).
 
+`sweep` runs the script's scene(**values) for every combination of the --param values, each
+as a Ray task (tai_coll.sweeps), and writes DIR/results.csv and results.json: one row per run
+with the parameters, the script's metrics(scene) after the last frame, the wall time, the
+worker's pid and node, and a status ("ok" or the error). --render adds each run's last frame
+and DIR/contact_sheet.png. It exits 1 when any run failed (the others finish).
+
 Exit status: 0 done, 1 the scene script, the simulation, rendering or ffmpeg failed (with
 the script's traceback or ffmpeg's message), 2 bad arguments (one line saying why),
 130 interrupted.
@@ -30,17 +38,16 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import logging
-import numbers
 import sys
-import tempfile
 import time
 import traceback
 from pathlib import Path
 
 from .runtime import MAX_THREADS
+from .scripts import (DEFAULT_FRAMES, ScriptError, UsageError, build_scene, check_script_path, check_writable,
+                      load_script, parse_resolution, render_settings, script_frames, script_traceback)
 
 ARCHS = ("cpu", "cuda", "vulkan", "auto")
-DEFAULT_FRAMES = 120
 DEFAULT_RES = (1280, 720)
 FRAME_PATTERN = "frame_{:05d}.png"
 EXPORT_PATTERN = "particles_{:05d}.{}"  # frame number, format
@@ -49,32 +56,7 @@ STATE_PATTERN = "state_{:05d}.npz"
 MAX_FPS = 10000  # --fps must lie in (0, MAX_FPS)
 
 
-class UsageError(Exception):
-    """Bad arguments: reported in one line, exit status 2."""
-
-
-class ScriptError(Exception):
-    """The scene script raised: its traceback is reported, exit status 1."""
-
-    def __init__(self, path: Path, what: str, error: BaseException):
-        super().__init__(f"{path} failed {what}: {type(error).__name__}: {error}")
-        self.path, self.error = path, error
-
-
 # ----------------------------------------------------------------------------- arguments
-def parse_resolution(text: str):
-    from .render.renderer import MAX_SIZE
-
-    parts = text.lower().split("x")
-    try:
-        width, height = (int(p) for p in parts)
-    except ValueError:
-        raise UsageError(f"--res must be WIDTHxHEIGHT, e.g. 1280x720; got {text!r}") from None
-    if not (1 <= width <= MAX_SIZE and 1 <= height <= MAX_SIZE):
-        raise UsageError(f"--res must have a width and height from 1 to {MAX_SIZE} pixels; got {text!r}")
-    return width, height
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="tai-coll", description="tai_coll: particle collisions on Taichi.")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -100,6 +82,25 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--resume", metavar="STATE", help="start from a state saved by --checkpoint-every (or "
                                                         "scene.save_state) of the same script")
 
+    sweep = commands.add_parser("sweep", help="run a scene script for every combination of parameter values, "
+                                               "on Ray (the 'sweep' extra)")
+    sweep.add_argument("scene", metavar="SCENE.py", help="a Python file defining scene(NAME=default, ...) -> tc.Scene "
+                                                        "and, optionally, metrics(scene) -> dict")
+    sweep.add_argument("--param", action="append", required=True, metavar="NAME=V1,V2,...",
+                       help="a parameter of scene() and its values (repeat for more: every combination runs)")
+    sweep.add_argument("--frames", type=int, help=f"frames each run simulates (default: the script's FRAMES, else "
+                                                  f"{DEFAULT_FRAMES})")
+    sweep.add_argument("--out", metavar="DIR", help="folder for results.csv, results.json and the frames "
+                                                    "(default out/SCENE_sweep)")
+    sweep.add_argument("--address", metavar="HOST:PORT", help="an existing Ray cluster (default RAY_ADDRESS, else "
+                                                              "a local cluster on this machine)")
+    sweep.add_argument("--workers", type=int, metavar="K", help="runs at a time (default: one per core)")
+    sweep.add_argument("--render", action="store_true", help="render each run's last frame and a contact sheet")
+    sweep.add_argument("--res", default=None, metavar="WxH", help="frame size for --render (default 480x270)")
+    sweep.add_argument("--arch", default="auto", choices=ARCHS, help="where each run's physics runs (default auto: "
+                                                                     "a GPU a run where the workers have them)")
+    sweep.add_argument("--threads", type=int, default=1, help="CPU threads a run (default 1)")
+
     info = commands.add_parser("info", help="versions, arch, Vulkan and ffmpeg: a preflight check")
     info.add_argument("--arch", default="auto", choices=ARCHS, help="arch to report (default auto)")
 
@@ -111,13 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def check_run_args(args):
     """Validate `run` arguments before Taichi starts; returns the scene path."""
-    path = Path(args.scene)
-    if not path.exists():
-        raise UsageError(f"scene file not found: {path}")
-    if not path.is_file():
-        raise UsageError(f"scene path is not a file: {path}")
-    if path.suffix != ".py":
-        raise UsageError(f"scene file must be a Python script (.py): {path}")
+    path = check_script_path(args.scene)
     if args.frames is not None and args.frames < 1:
         raise UsageError(f"--frames must be >= 1; got {args.frames}")
     if args.fps is not None and not 0 < args.fps < MAX_FPS:
@@ -178,102 +173,11 @@ def output_paths(args, path: Path):
     return frame_dir, video_path
 
 
-def check_writable(option: str, folder: Path):
-    """UsageError unless `folder` exists or can be made, and a file can be written in it.
-    Tried for real (permission bits do not tell, e.g. for root under /proc), and undone:
-    folders made here are removed again, so a run that fails later leaves nothing behind."""
-    made = []
-    try:
-        missing = []
-        for part in (folder, *folder.parents):
-            if part.exists():
-                break
-            missing.append(part)
-        for part in reversed(missing):
-            part.mkdir()
-            made.append(part)
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as error:
-        raise UsageError(f"{option}: cannot write in {folder}: {error.strerror or error}") from None
-    finally:
-        for part in reversed(made):
-            try:
-                part.rmdir()
-            except OSError:
-                pass
-
-
 # ----------------------------------------------------------------------------- scene scripts
-def load_script(path: Path):
-    """Import a scene script as a module (its folder on sys.path, as `python SCRIPT` has)."""
-    name = f"tai_coll_scene_{path.stem}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    folder = str(path.resolve().parent)
-    if folder not in sys.path:
-        sys.path.insert(0, folder)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    except Exception as error:
-        raise ScriptError(path, "while loading", error) from error
-    return module
-
-
-def build_scene(module, path: Path):
-    import tai_coll as tc
-
-    make = getattr(module, "scene", None)
-    if not callable(make):
-        raise UsageError(f"{path} defines no scene() function (it must return a tc.Scene)")
-    try:
-        scene = make()
-    except Exception as error:
-        raise ScriptError(path, "in scene()", error) from error
-    if not isinstance(scene, tc.Scene):
-        raise UsageError(f"{path}: scene() must return a tc.Scene; got {type(scene).__name__}")
-    return scene
-
-
-def render_settings(module, path: Path) -> dict:
-    make = getattr(module, "render_settings", None)
-    if make is None:
-        return {}
-    try:
-        settings = make()
-    except Exception as error:
-        raise ScriptError(path, "in render_settings()", error) from error
-    if not isinstance(settings, dict):
-        raise UsageError(f"{path}: render_settings() must return a dict of Renderer arguments; "
-                         f"got {type(settings).__name__}")
-    return dict(settings)
-
-
-def script_traceback(error: ScriptError) -> str:
-    """The traceback from the script's own frames on (tai-coll's loader frames left out)."""
-    te = traceback.TracebackException.from_exception(error.error)
-    script = str(error.path.resolve())
-    frames = list(te.stack)
-    for i, frame in enumerate(frames):
-        if str(Path(frame.filename).resolve()) == script:
-            te.stack = traceback.StackSummary.from_list(frames[i:])
-            break
-    return "".join(te.format())
-
-
 # ----------------------------------------------------------------------------- run
 def default_fps(scene) -> float:
     fps = 1.0 / scene.frame_time
     return round(fps, 3) if 1.0 <= fps <= 240.0 else 30.0
-
-
-def script_frames(module, path: Path) -> int:
-    """The script's FRAMES (default DEFAULT_FRAMES): an integer >= 1, else a UsageError."""
-    frames = getattr(module, "FRAMES", DEFAULT_FRAMES)
-    if isinstance(frames, bool) or not isinstance(frames, numbers.Integral) or frames < 1:
-        raise UsageError(f"{path}: FRAMES must be an integer >= 1 (or give --frames); got {frames!r}")
-    return int(frames)
 
 
 def run(args) -> int:
@@ -513,6 +417,9 @@ def info(args) -> int:
     usd = version("usd-core")
     print(f"usd-core (USD export, the 'usd' extra): "
           f"{usd if usd != 'not installed' else 'not installed: pip install tai_coll[usd]'}")
+    ray = version("ray")
+    print(f"ray (tai-coll sweep, the 'sweep' extra): "
+          f"{ray if ray != 'not installed' else 'not installed: pip install tai_coll[sweep]'}")
     ok = True
     try:
         runtime = tc.init(arch=args.arch)
@@ -555,6 +462,10 @@ def main(argv=None) -> int:
         args = build_parser().parse_args(argv)
         if args.command == "run":
             return run(args)
+        if args.command == "sweep":
+            from .sweeps.command import sweep_command
+
+            return sweep_command(args)
         return info(args)
     except UsageError as error:
         print(f"tai-coll: error: {error}", file=sys.stderr)

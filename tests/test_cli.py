@@ -178,6 +178,9 @@ def test_info_is_a_preflight():
     assert out.returncode == 0, out.stdout + out.stderr
     assert "arch: cpu -> cpu" in out.stdout
     assert "vulkan (rendering): ok" in out.stdout and "ffmpeg (video): ok" in out.stdout
+    import ray
+
+    assert f"ray (tai-coll sweep, the 'sweep' extra): {ray.__version__}" in out.stdout
     assert out.stdout.strip().endswith("ready")
 
 

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Set up a fresh machine for tai_coll: the system libraries headless rendering needs
 # (Vulkan's loader and Mesa's software driver, lavapipe, for machines without a GPU driver),
-# then a virtual environment in .venv with tai_coll, its USD export (usd-core) and its test
-# dependencies.
+# then a virtual environment in .venv with tai_coll, its USD export (usd-core), its sweeps on
+# Ray (ray, pillow) and its test dependencies.
 # Safe to run again: it skips what is already there.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -25,5 +25,5 @@ fi
 
 python3 -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
-.venv/bin/python -m pip install -q -e ".[usd,test]"
+.venv/bin/python -m pip install -q -e ".[usd,sweep,test]"
 echo "setup: done (.venv ready)"
