@@ -3,7 +3,7 @@ particles are in contact (issue 23). Warp (`warp-lang`) is a benchmark-only extr
 `pip install 'tai_coll[bench]'`; tai_coll never imports it.
 
     python tools/bench_warp.py                         # both rows: a 1M layer, a 100k bed (CPU)
-    python tools/bench_warp.py --rows layer --layer-particles 200000
+    python tools/bench_warp.py --rows bed --bed-particles 20000 --warp-variants impulse
     python tools/bench_warp.py --arch cuda --layer-particles 10000000
 
 Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second):
@@ -13,13 +13,36 @@ Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second)
   normal velocity and Coulomb friction on the tangential one (the same 1-D impulse law).
 - bed: 100,000 particles on a jittered lattice 2.2 r apart, 6 layers deep, in a box (floor
   and four walls); 300 steps to settle, then 100 timed. tai_coll: enable_particle_collisions()
-  (Gauss-Seidel impulses, the default). Warp: position-based Jacobi on `wp.HashGrid`
-  (predict, the grid on the predicted positions, 4 Jacobi passes each moving a particle by the
-  mean of its contacts' half-overlaps and out of the walls, then the velocity from the move
-  with the walls' restitution and friction), one launch per kernel. Both report the mean
-  overlap of touching pairs at the end (relative to the radius).
+  (Gauss-Seidel impulses, the default). Warp: three solvers of the same bed, the script's own
+  kernels (--warp-variants, default all). Each step of each: one `wp.HashGrid` build and one
+  gather (a query per particle) into half lists (planes within the skin, particles j > i
+  within 2 r + skin: every pair computed once, its result added to both particles), then
+  passes over the lists; launches only, nothing read back inside the timed loop.
+  - pbd: position-based Jacobi: predict; 4 passes, each moving a particle by 1.5 (SOR) times
+    the mean of its pairs' corrections (half the overlap; positional Coulomb friction: the
+    relative tangential move undone up to mu times the overlap), then out of the planes; the
+    velocity from the move, with restitution e for approaches faster than 2 g dt.
+  - impulse: impulse-based Jacobi: gravity; 4 iterations of accumulated normal impulses
+    (restitution e above 2 g dt, speculative contacts within the skin) and Coulomb friction
+    impulses, with mass splitting (a pair's change divided by both particles' list counts),
+    warm-started from the step before's impulses; overlaps pushed apart in position in the
+    first iteration (a Baumgarte bias velocity, kept by the warm start, made the bed boil);
+    then x += v dt.
+  - dem: linear spring-dashpot, k_n = 1000 N/m on 1.31 g particles (glass), dashpots for
+    e = 0.5, tangential viscous friction capped by Coulomb, symplectic Euler. dt = 1/600 s is
+    unstable for it (a pair's contact lasts 2.5 ms), so 5 substeps of 333 us a step (about 8
+    a contact; 0.15 of the critical 2 sqrt(m / k)), over a list gathered once a step with a
+    skin of 0.3 r. The stiffness keeps the mean overlap near tai_coll's (about 0.5 % of r); a
+    particle-step is one of dt = 1/600 s, as for the others. (Without tangential springs a
+    loaded contact creeps: 7 mm/s on a slope of tan 0.2 < mu.)
+  Every solver reports the mean overlap of touching pairs (relative to the radius, by a
+  tai_coll scene's measure) and the largest speed after the timed steps. tai_coll's ratio is
+  given against each, and against Warp's fastest (the overlaps beside the rates).
+  The first Warp solver here (PBD, 5.0e5 particle-steps/s) queried the hash grid in every
+  Jacobi pass: 4 queries a step of 27 cells of 2 r, about 400 ns a particle each, 97 % of its
+  time; and it cleared a 128^3 grid (16 MB) every build.
 Warp's CPU backend runs one thread; tai_coll runs --threads (default 2). Prints a table with
-the ratio and writes bench_results/bench_warp.json.
+the ratios and writes bench_results/bench_warp.json (every solver's figures and settings).
 """
 
 import argparse
@@ -86,14 +109,50 @@ def tai_coll_bed(n: int, settle: int, timed: int) -> dict:
     scene.add_particles(positions=x, radius=R)
     scene.enable_particle_collisions(material=tc.Material(restitution=E, friction=MU))
     scene.step(settle // SUBSTEPS)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     scene.step(timed // SUBSTEPS)
     seconds = time.perf_counter() - t0
-    return {"rate": n * timed / seconds, "seconds": seconds, "mean_overlap": scene.particle_overlap()["mean"]}
+    return {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": time.process_time() - c0,
+            "mean_overlap": scene.particle_overlap()["mean"], **speeds(scene.velocities())}
 
 
 # ---------------------------------------------------------------------- Warp
+WARP_VARIANTS = ("pbd", "impulse", "dem")
+GRAVITY = (0.0, G, 0.0)
+REST_SPEED = 2.0 * abs(G) * DT  # pbd, impulse: slower approaches than this do not bounce
+# The solvers' settings (see the module docstring).
+PBD = {"passes": 4, "omega": 1.5, "skin": 0.2 * R}
+IMPULSE = {"iterations": 4, "push": 1.0, "warm": 1.0, "skin": 0.2 * R}
+DEM_DENSITY = 2500.0  # kg/m^3 (glass): a particle's mass is 1.31 g
+DEM = {"substeps": 5, "stiffness": 1000.0, "skin": 0.3 * R}  # stiffness: k_n in N/m
+CAPACITY = 16  # list slots a particle: planes within the skin and particles j > i within reach
+
+
 def warp_kernels(wp):
+    """The Warp side's kernels, written for this comparison: the layer's one-kernel step, and the
+    bed's three solvers over one neighbour gather a step (returned as a dict by name).
+
+    The bed's lists are half lists: particle i's row holds the planes within the skin (as
+    -1 - plane) and the particles j > i within reach, so every pair is computed once, and its
+    result is added to both particles (wp.atomic_add: a plain add on the one-thread CPU
+    backend); a second kernel then applies the sums and clears them."""
+    wp.set_module_options({"enable_backward": False})  # forward only: no adjoint code to compile
+
+    @wp.struct
+    class Bed:
+        r: float
+        dt: float  # the solver's step (DEM: the substep)
+        e: float
+        mu: float
+        width: float  # the box: planes y = 0, x = 0, x = width, z = 0, z = width
+        reach: float  # the gather's radius, 2 r + skin
+        rest_speed: float
+        g: wp.vec3
+        kn: float  # DEM, per unit mass: normal stiffness (1/s^2),
+        cn: float  # pair normal damping (1/s; restitution e by the spring-dashpot law),
+        cn_wall: float  # the same against a plane (the particle's whole mass),
+        ct: float  # tangential viscous damping (1/s), capped by Coulomb (mu times normal)
+
     @wp.kernel
     def layer_step(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), dt: float, r: float, e: float,
                    mu: float):
@@ -114,60 +173,381 @@ def warp_kernels(wp):
         x[i] = xi
         v[i] = vi
 
-    @wp.kernel
-    def predict(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), xp: wp.array(dtype=wp.vec3), dt: float):
-        i = wp.tid()
-        xp[i] = x[i] + (v[i] + wp.vec3(0.0, -9.81, 0.0) * dt) * dt
+    # ---- the box
+    @wp.func
+    def plane_normal(k: int):
+        if k == 0:
+            return wp.vec3(0.0, 1.0, 0.0)
+        if k == 1:
+            return wp.vec3(1.0, 0.0, 0.0)
+        if k == 2:
+            return wp.vec3(-1.0, 0.0, 0.0)
+        if k == 3:
+            return wp.vec3(0.0, 0.0, 1.0)
+        return wp.vec3(0.0, 0.0, -1.0)
+
+    @wp.func
+    def plane_gap(k: int, p: wp.vec3, b: Bed):
+        """Clearance between a particle at p and plane k (negative: overlap)."""
+        c = float(0.0)
+        if k == 2 or k == 4:
+            c = b.width
+        return wp.dot(plane_normal(k), p) + c - b.r
+
+    # ---- the one gather a step the three share
+    @wp.func
+    def warm_start(i: int, c: int, j: int, n: wp.vec3, warm: float, nbr_old: wp.array2d(dtype=wp.int32),
+                   count_old: wp.array(dtype=wp.int32), lam_old: wp.array2d(dtype=float),
+                   lam_t_old: wp.array2d(dtype=wp.vec3), lam: wp.array2d(dtype=float),
+                   lam_t: wp.array2d(dtype=wp.vec3)):
+        """Slot c of row i (entry j, normal n) starts from warm times its impulses of the step
+        before, if j was in row i then (the friction one kept in the new tangent plane), else 0;
+        returns that impulse on particle i."""
+        ln = float(0.0)
+        lt = wp.vec3(0.0)
+        for s in range(count_old[i]):
+            if nbr_old[i, s] == j:
+                ln = warm * lam_old[i, s]
+                lt = warm * lam_t_old[i, s]
+                lt = lt - wp.dot(lt, n) * n
+        lam[i, c] = ln
+        lam_t[i, c] = lt
+        return ln * n + lt
 
     @wp.kernel
-    def jacobi(grid: wp.uint64, xp: wp.array(dtype=wp.vec3), r: float, width: float,
-               out: wp.array(dtype=wp.vec3)):
-        tid = wp.tid()
-        i = wp.hash_grid_point_id(grid, tid)
-        xi = xp[i]
-        delta = wp.vec3(0.0)
-        count = int(0)
-        query = wp.hash_grid_query(grid, xi, 2.0 * r)
+    def gather(grid: wp.uint64, x: wp.array(dtype=wp.vec3), b: Bed, nbr: wp.array2d(dtype=wp.int32),
+               count: wp.array(dtype=wp.int32), dropped: wp.array(dtype=wp.int32), warm: float,
+               nbr_old: wp.array2d(dtype=wp.int32), count_old: wp.array(dtype=wp.int32),
+               lam_old: wp.array2d(dtype=float), lam_t_old: wp.array2d(dtype=wp.vec3),
+               lam: wp.array2d(dtype=float), lam_t: wp.array2d(dtype=wp.vec3), split: wp.array(dtype=wp.int32),
+               dv: wp.array(dtype=wp.vec3)):
+        """Row i of the step's half list: the planes within the skin, then the particles j > i
+        within reach (one hash grid query); a full row counts into `dropped`. With warm >= 0
+        (impulse), also: every entry's warm start (summed into dv), and split, the number of
+        entries each particle is in (its mass split; split and dv cleared before)."""
+        i = wp.tid()
+        xi = x[i]
+        skin = b.reach - 2.0 * b.r
+        c = int(0)
+        dvi = wp.vec3(0.0)
+        for k in range(5):
+            if plane_gap(k, xi, b) < skin:
+                nbr[i, c] = -1 - k
+                if warm >= 0.0:
+                    dvi += warm_start(i, c, -1 - k, plane_normal(k), warm, nbr_old, count_old, lam_old, lam_t_old,
+                                      lam, lam_t)
+                c += 1
+        cap = nbr.shape[1]
+        reach2 = b.reach * b.reach
+        query = wp.hash_grid_query(grid, xi, b.reach)
         j = int(0)
         while wp.hash_grid_query_next(query, j):
-            if j != i:
-                d = xi - xp[j]
-                dist = wp.length(d)
-                if dist < 2.0 * r and dist > 1e-9:
-                    delta += d / dist * (0.5 * (2.0 * r - dist))
-                    count += 1
-        if count > 0:
-            xi = xi + delta / float(count)
-        xi = wp.vec3(wp.clamp(xi[0], r, width - r), wp.max(xi[1], r), wp.clamp(xi[2], r, width - r))
-        out[i] = xi
+            if j > i:
+                d = xi - x[j]
+                d2 = wp.length_sq(d)
+                if d2 < reach2:
+                    if c < cap:
+                        nbr[i, c] = j
+                        if warm >= 0.0:
+                            imp = warm_start(i, c, j, d / wp.sqrt(wp.max(d2, 1.0e-20)), warm, nbr_old, count_old,
+                                             lam_old, lam_t_old, lam, lam_t)
+                            dvi += imp
+                            wp.atomic_sub(dv, j, imp)
+                            wp.atomic_add(split, j, 1)
+                        c += 1
+                    else:
+                        wp.atomic_add(dropped, 0, 1)
+        count[i] = c
+        if warm >= 0.0:
+            wp.atomic_add(split, i, c)
+            wp.atomic_add(dv, i, dvi)
+
+    # ---- pbd: position-based Jacobi
+    @wp.kernel
+    def pbd_predict(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), b: Bed, xp: wp.array(dtype=wp.vec3)):
+        i = wp.tid()
+        vi = v[i] + b.g * b.dt
+        v[i] = vi  # the velocity before contacts (restitution reads it)
+        xp[i] = x[i] + vi * b.dt
 
     @wp.kernel
-    def finish(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), xp: wp.array(dtype=wp.vec3), dt: float,
-               r: float, width: float, e: float, mu: float):
+    def pbd_pairs(x: wp.array(dtype=wp.vec3), xp: wp.array(dtype=wp.vec3), nbr: wp.array2d(dtype=wp.int32),
+                  count: wp.array(dtype=wp.int32), b: Bed, delta: wp.array(dtype=wp.vec3),
+                  hits: wp.array(dtype=wp.int32)):
+        """A Jacobi pass's corrections: each overlapping pair moves apart by half its overlap each,
+        and positional friction undoes the pair's relative tangential move this step, up to mu
+        times the overlap (static below it)."""
         i = wp.tid()
-        vi = (xp[i] - x[i]) / dt
-        # the walls' restitution and friction on the velocity the move implies (floor shown;
-        # the side walls only stop the normal component)
-        if xp[i][1] <= r + 1e-6 and vi[1] < 0.0:
-            dvn = -(1.0 + e) * vi[1]
-            vt = wp.vec3(vi[0], 0.0, vi[2])
-            speed = wp.length(vt)
-            scale = 0.0
-            if speed > 0.0:
-                scale = wp.max(0.0, 1.0 - mu * dvn / speed)
-            vi = vt * scale + wp.vec3(0.0, -e * vi[1], 0.0)
-        if (xp[i][0] <= r + 1e-6 and vi[0] < 0.0) or (xp[i][0] >= width - r - 1e-6 and vi[0] > 0.0):
-            vi = wp.vec3(-e * vi[0], vi[1], vi[2])
-        if (xp[i][2] <= r + 1e-6 and vi[2] < 0.0) or (xp[i][2] >= width - r - 1e-6 and vi[2] > 0.0):
-            vi = wp.vec3(vi[0], vi[1], -e * vi[2])
-        x[i] = xp[i]
+        xi = xp[i]
+        di = xi - x[i]
+        two_r = 2.0 * b.r
+        acc = wp.vec3(0.0)
+        m = int(0)
+        for s in range(count[i]):
+            j = nbr[i, s]
+            if j >= 0:
+                xj = xp[j]
+                d = xi - xj
+                d2 = wp.length_sq(d)
+                if d2 < two_r * two_r and d2 > 1.0e-20:
+                    dist = wp.sqrt(d2)
+                    n = d / dist
+                    pen = two_r - dist
+                    rel = di - (xj - x[j])
+                    t = rel - wp.dot(rel, n) * n
+                    tl = wp.length(t)
+                    corr = (0.5 * pen) * n
+                    if tl > 0.0:
+                        corr -= (0.5 * wp.min(1.0, b.mu * pen / tl)) * t
+                    acc += corr
+                    m += 1
+                    wp.atomic_sub(delta, j, corr)
+                    wp.atomic_add(hits, j, 1)
+        if m > 0:
+            wp.atomic_add(delta, i, acc)
+            wp.atomic_add(hits, i, m)
+
+    @wp.kernel
+    def pbd_apply(x: wp.array(dtype=wp.vec3), xp: wp.array(dtype=wp.vec3), delta: wp.array(dtype=wp.vec3),
+                  hits: wp.array(dtype=wp.int32), b: Bed, omega: float):
+        """Particle i moves by omega times the mean of its pairs' corrections, then out of the
+        planes (with the same positional friction against them)."""
+        i = wp.tid()
+        xi = xp[i]
+        m = hits[i]
+        if m > 0:
+            xi += delta[i] * (omega / float(m))
+            delta[i] = wp.vec3(0.0)
+            hits[i] = 0
+        for k in range(5):
+            gap = plane_gap(k, xi, b)
+            if gap < 0.0:
+                n = plane_normal(k)
+                xi -= gap * n
+                t = xi - x[i]
+                t -= wp.dot(t, n) * n
+                tl = wp.length(t)
+                if tl > 0.0:
+                    xi -= wp.min(1.0, b.mu * (-gap) / tl) * t
+        xp[i] = xi
+
+    @wp.kernel
+    def pbd_bounce(x: wp.array(dtype=wp.vec3), xp: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3),
+                   nbr: wp.array2d(dtype=wp.int32), count: wp.array(dtype=wp.int32), b: Bed,
+                   dv: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32)):
+        """Restitution: a touching pair that approached faster than rest_speed before the step
+        should leave at e times that speed; each gets half the missing normal velocity."""
+        i = wp.tid()
+        inv_dt = 1.0 / b.dt
+        xi = xp[i]
+        vi = (xi - x[i]) * inv_dt
+        touch = 2.0 * b.r * 1.001
+        acc = wp.vec3(0.0)
+        m = int(0)
+        for s in range(count[i]):
+            j = nbr[i, s]
+            if j >= 0:
+                d = xi - xp[j]
+                d2 = wp.length_sq(d)
+                if d2 < touch * touch and d2 > 1.0e-20:
+                    n = d / wp.sqrt(d2)
+                    vn0 = wp.dot(v[i] - v[j], n)
+                    if vn0 < -b.rest_speed:
+                        vn = wp.dot(vi - (xp[j] - x[j]) * inv_dt, n)
+                        target = -b.e * vn0
+                        if vn < target:
+                            corr = (0.5 * (target - vn)) * n
+                            acc += corr
+                            m += 1
+                            wp.atomic_sub(dv, j, corr)
+                            wp.atomic_add(hits, j, 1)
+        if m > 0:
+            wp.atomic_add(dv, i, acc)
+            wp.atomic_add(hits, i, m)
+
+    @wp.kernel
+    def pbd_velocity(x: wp.array(dtype=wp.vec3), xp: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3),
+                     dv: wp.array(dtype=wp.vec3), hits: wp.array(dtype=wp.int32), b: Bed):
+        """The velocity the step's move implies, plus the mean of the restitution corrections;
+        the planes' restitution likewise (the velocity before the step is v's old value)."""
+        i = wp.tid()
+        xi = xp[i]
+        vi = (xi - x[i]) * (1.0 / b.dt)
+        m = hits[i]
+        if m > 0:
+            vi += dv[i] / float(m)
+            dv[i] = wp.vec3(0.0)
+            hits[i] = 0
+        for k in range(5):
+            if plane_gap(k, xi, b) < 1.0e-3 * b.r:
+                n = plane_normal(k)
+                vn0 = wp.dot(v[i], n)
+                vn = wp.dot(vi, n)
+                if vn0 < -b.rest_speed and vn < -b.e * vn0:
+                    vi += (-b.e * vn0 - vn) * n
         v[i] = vi
 
-    return layer_step, predict, jacobi, finish
+    # ---- impulse: Jacobi impulses with mass splitting and warm starting
+    @wp.kernel
+    def impulse_begin(v: wp.array(dtype=wp.vec3), v0: wp.array(dtype=wp.vec3), dv: wp.array(dtype=wp.vec3),
+                      b: Bed):
+        """Gravity (v0: the velocity before contacts), then the warm start the gather summed."""
+        i = wp.tid()
+        vi = v[i] + b.g * b.dt
+        v0[i] = vi
+        v[i] = vi + dv[i]
+        dv[i] = wp.vec3(0.0)
+
+    @wp.kernel
+    def impulse_pairs(x: wp.array(dtype=wp.vec3), v0: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3),
+                      nbr: wp.array2d(dtype=wp.int32), count: wp.array(dtype=wp.int32),
+                      split: wp.array(dtype=wp.int32), b: Bed, push: float, lam: wp.array2d(dtype=float),
+                      lam_t: wp.array2d(dtype=wp.vec3), dv: wp.array(dtype=wp.vec3), dx: wp.array(dtype=wp.vec3)):
+        """A Jacobi iteration's impulses. Each listed contact moves its accumulated normal impulse
+        (>= 0) toward a target normal velocity: e times the approach speed before the step if
+        that was above rest_speed and closes the gap within the step (a bounce); else a
+        separated pair may close at most its gap and a touching one stops approaching. Then its
+        accumulated friction impulse toward no sliding, within mu times the normal one
+        (Coulomb). Mass splitting: a change is divided by the two particles' list counts (a
+        plane counts 0), which keeps the Jacobi sums stable; the pair's impulses are equal and
+        opposite. push > 0 (the first iteration): overlaps are also pushed apart in position,
+        split the same way, never through the velocity (a bias velocity would be kept by the
+        warm start and pump energy: measured, the bed boiled)."""
+        i = wp.tid()
+        xi = x[i]
+        vi = v[i]
+        v0i = v0[i]
+        si = float(split[i])
+        inv_dt = 1.0 / b.dt
+        two_r = 2.0 * b.r
+        acc = wp.vec3(0.0)
+        move = wp.vec3(0.0)
+        for s in range(count[i]):
+            j = nbr[i, s]
+            n = wp.vec3(0.0)
+            gap = float(0.0)
+            vrel = vi
+            vrel0 = v0i
+            denom = si
+            if j >= 0:
+                d = xi - x[j]
+                dist = wp.length(d)
+                n = d / wp.max(dist, 1.0e-12)
+                gap = dist - two_r
+                vrel = vi - v[j]
+                vrel0 = v0i - v0[j]
+                denom = si + float(split[j])
+            else:
+                n = plane_normal(-1 - j)
+                gap = plane_gap(-1 - j, xi, b)
+            vn = wp.dot(vrel, n)
+            vn0 = wp.dot(vrel0, n)
+            target = -gap * inv_dt  # separated: the most it may close
+            if vn0 < -b.rest_speed and vn0 < target:  # it hits in the step: the bounce
+                target = -b.e * vn0
+            elif gap <= 0.0:  # touching: stop (no bias velocity)
+                target = 0.0
+            if gap <= 0.0:
+                if push > 0.0:
+                    step = (-push * gap / denom) * n
+                    move += step
+                    if j >= 0:
+                        wp.atomic_sub(dx, j, step)
+            old = lam[i, s]
+            new = wp.max(old + (target - vn) / denom, 0.0)
+            lam[i, s] = new
+            old_t = lam_t[i, s]
+            new_t = old_t - (vrel - vn * n) / denom
+            cap = b.mu * new
+            lt = wp.length(new_t)
+            if lt > cap:
+                new_t = new_t * (cap / lt)
+            lam_t[i, s] = new_t
+            imp = (new - old) * n + (new_t - old_t)
+            acc += imp
+            if j >= 0:
+                wp.atomic_sub(dv, j, imp)
+        wp.atomic_add(dv, i, acc)
+        if push > 0.0:
+            wp.atomic_add(dx, i, move)
+
+    @wp.kernel
+    def impulse_apply(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), dv: wp.array(dtype=wp.vec3),
+                      dx: wp.array(dtype=wp.vec3), b: Bed, push: float, last: int):
+        """Adds the iteration's impulses (and pushes); after the last one, advances the position."""
+        i = wp.tid()
+        vi = v[i] + dv[i]
+        dv[i] = wp.vec3(0.0)
+        v[i] = vi
+        xi = x[i]
+        if push > 0.0:
+            xi += dx[i]
+            dx[i] = wp.vec3(0.0)
+        if last != 0:
+            xi += vi * b.dt
+        if push > 0.0 or last != 0:
+            x[i] = xi
+
+    # ---- dem: linear spring-dashpot, Coulomb friction, symplectic Euler substeps
+    @wp.kernel
+    def dem_pairs(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), nbr: wp.array2d(dtype=wp.int32),
+                  count: wp.array(dtype=wp.int32), b: Bed, acc: wp.array(dtype=wp.vec3)):
+        """The contact forces (per unit mass) at the substep's start: normal kn overlap - cn
+        approach speed, never pulling; tangential ct times the sliding speed, at most mu times
+        the normal (Coulomb), against it."""
+        i = wp.tid()
+        xi = x[i]
+        vi = v[i]
+        two_r = 2.0 * b.r
+        ai = wp.vec3(0.0)
+        for s in range(count[i]):
+            j = nbr[i, s]
+            n = wp.vec3(0.0)
+            pen = float(0.0)
+            vrel = vi
+            cn = b.cn_wall
+            if j >= 0:
+                d = xi - x[j]
+                d2 = wp.length_sq(d)
+                if d2 < two_r * two_r and d2 > 1.0e-20:
+                    dist = wp.sqrt(d2)
+                    n = d / dist
+                    pen = two_r - dist
+                    vrel = vi - v[j]
+                    cn = b.cn
+            else:
+                n = plane_normal(-1 - j)
+                pen = -plane_gap(-1 - j, xi, b)
+            if pen > 0.0:
+                vn = wp.dot(vrel, n)
+                fn = wp.max(b.kn * pen - cn * vn, 0.0)
+                vt = vrel - vn * n
+                vtl = wp.length(vt)
+                f = fn * n
+                if vtl > 0.0:
+                    f -= (wp.min(b.ct * vtl, b.mu * fn) / vtl) * vt
+                ai += f
+                if j >= 0:
+                    wp.atomic_sub(acc, j, f)
+        wp.atomic_add(acc, i, ai)
+
+    @wp.kernel
+    def dem_advance(x: wp.array(dtype=wp.vec3), v: wp.array(dtype=wp.vec3), acc: wp.array(dtype=wp.vec3), b: Bed):
+        """Symplectic Euler over the substep; clears the forces."""
+        i = wp.tid()
+        vi = v[i] + (b.g + acc[i]) * b.dt
+        acc[i] = wp.vec3(0.0)
+        v[i] = vi
+        x[i] = x[i] + vi * b.dt
+
+    return {"Bed": Bed, "layer_step": layer_step, "gather": gather, "pbd_predict": pbd_predict,
+            "pbd_pairs": pbd_pairs, "pbd_apply": pbd_apply, "pbd_bounce": pbd_bounce, "pbd_velocity": pbd_velocity,
+            "impulse_begin": impulse_begin, "impulse_pairs": impulse_pairs, "impulse_apply": impulse_apply,
+            "dem_pairs": dem_pairs, "dem_advance": dem_advance}
 
 
 def warp_layer(wp, kernels, n: int, frames: int, device: str) -> dict:
-    layer_step = kernels[0]
+    layer_step = kernels["layer_step"]
     x = wp.array(layer_positions(n).astype(np.float32), dtype=wp.vec3, device=device)
     v = wp.zeros(n, dtype=wp.vec3, device=device)
     for _ in range(2 * SUBSTEPS):
@@ -181,33 +561,116 @@ def warp_layer(wp, kernels, n: int, frames: int, device: str) -> dict:
     return {"rate": n * SUBSTEPS * frames / seconds, "seconds": seconds, "lowest": float(x.numpy()[:, 1].min())}
 
 
-def warp_bed(wp, kernels, n: int, settle: int, timed: int, device: str, passes: int = 4) -> dict:
-    _, predict, jacobi, finish = kernels
+def dem_parameters() -> dict:
+    """The DEM's constants per unit mass, from DEM's stiffness and a particle's mass: dashpots
+    that give restitution E for a pair (reduced mass m / 2) and against a plane (mass m)."""
+    mass = DEM_DENSITY * 4.0 / 3.0 * np.pi * R ** 3
+    kn = DEM["stiffness"] / mass
+    zeta = -np.log(E) / np.sqrt(np.pi ** 2 + np.log(E) ** 2)  # the damping ratio for restitution E
+    return {"kn": kn, "cn": 2.0 * zeta * np.sqrt(kn / 2.0), "cn_wall": 2.0 * zeta * np.sqrt(kn),
+            "ct": 2.0 * zeta * np.sqrt(kn / 2.0), "dt": DT / DEM["substeps"],
+            "contact_time": np.pi / np.sqrt(2.0 * kn)}  # a pair's contact, undamped
+
+
+def bed_constants(wp, kernels, variant: str, width: float, reach: float):
+    """The Bed struct the variant's kernels read."""
+    b = kernels["Bed"]()
+    b.r, b.e, b.mu, b.width, b.reach = R, E, MU, float(width), float(reach)
+    b.rest_speed, b.g, b.dt = REST_SPEED, wp.vec3(*GRAVITY), DT
+    if variant == "dem":
+        dem = dem_parameters()
+        b.kn, b.cn, b.cn_wall, b.ct, b.dt = dem["kn"], dem["cn"], dem["cn_wall"], dem["ct"], dem["dt"]
+    return b
+
+
+def warp_bed(wp, kernels, variant: str, n: int, settle: int, timed: int, device: str) -> dict:
+    """One Warp solver on the bed: `settle` steps, then `timed` steps between two synchronizes.
+    Every step: one hash grid build and one gather of the half list, then the variant's
+    passes over that list: launches only, no host reads or copies. The result: the rate, the
+    mean overlap and the largest speed at the end, and list entries dropped (full rows; 0)."""
+    K = kernels
     positions, width = bed_positions(n)
+    reach = 2.0 * R + {"pbd": PBD, "impulse": IMPULSE, "dem": DEM}[variant]["skin"]
+    b = bed_constants(wp, K, variant, width, reach)
+    impulse = variant == "impulse"
+
+    def zeros(shape, dtype=wp.vec3):
+        return wp.zeros(shape, dtype=dtype, device=device)
+
     x = wp.array(positions.astype(np.float32), dtype=wp.vec3, device=device)
-    v = wp.zeros(n, dtype=wp.vec3, device=device)
-    xp = wp.zeros(n, dtype=wp.vec3, device=device)
-    scratch = wp.zeros(n, dtype=wp.vec3, device=device)
-    grid = wp.HashGrid(128, 128, 128, device=device)
+    v = zeros(n)
+    acc, hits = zeros(n), zeros(n, wp.int32)  # a pass's sums over pairs, cleared where applied
+    xp = zeros(n)  # pbd: the predicted positions the passes move
+    v0, split, dx = zeros(n), zeros(n, wp.int32), zeros(n)  # impulse: see impulse_pairs
+    dropped = zeros(1, wp.int32)
+    # (row entries, row lengths, impulses, friction impulses): the step's half list and, for the
+    # impulse solver's warm start, the step before's
+    slots = (n, CAPACITY) if impulse else (1, 1)
+    lists = [(zeros((n, CAPACITY), wp.int32), zeros(n, wp.int32), zeros(slots, float), zeros(slots))
+             for _ in range(2 if impulse else 1)]
+    # cells twice the reach: a query reads 8 cells at most (27 with cells of the reach: slower);
+    # a hashed grid whose dims cover the box (the 128^3 default cleared 16 MB every build)
+    cell = 2.0 * reach
+    top = float(positions[:, 1].max()) + R
+    grid = wp.HashGrid(*[min(256, int(np.ceil(s / cell)) + 1) for s in (width, top, width)], device=device)
+
+    def gather(points):
+        lists.reverse()
+        (nbr, count, lam, lam_t), (nbr_old, count_old, lam_old, lam_t_old) = lists[0], lists[-1]
+        grid.build(points, cell)
+        if impulse:
+            split.zero_()
+        wp.launch(K["gather"], dim=n, inputs=[grid.id, points, b, nbr, count, dropped, IMPULSE["warm"] if impulse
+                                             else -1.0, nbr_old, count_old, lam_old, lam_t_old, lam, lam_t, split,
+                                             acc], device=device)
+        return nbr, count, lam, lam_t
 
     def step():
-        nonlocal xp, scratch
-        wp.launch(predict, dim=n, inputs=[x, v, xp, DT], device=device)
-        grid.build(xp, 2.0 * R)
-        for _ in range(passes):
-            wp.launch(jacobi, dim=n, inputs=[grid.id, xp, R, width, scratch], device=device)
-            xp, scratch = scratch, xp
-        wp.launch(finish, dim=n, inputs=[x, v, xp, DT, R, width, E, MU], device=device)
+        nonlocal x, xp
+        if variant == "pbd":
+            wp.launch(K["pbd_predict"], dim=n, inputs=[x, v, b, xp], device=device)
+            nbr, count, _, _ = gather(xp)
+            for _ in range(PBD["passes"]):
+                wp.launch(K["pbd_pairs"], dim=n, inputs=[x, xp, nbr, count, b, acc, hits], device=device)
+                wp.launch(K["pbd_apply"], dim=n, inputs=[x, xp, acc, hits, b, PBD["omega"]], device=device)
+            wp.launch(K["pbd_bounce"], dim=n, inputs=[x, xp, v, nbr, count, b, acc, hits], device=device)
+            wp.launch(K["pbd_velocity"], dim=n, inputs=[x, xp, v, acc, hits, b], device=device)
+            x, xp = xp, x
+        elif variant == "impulse":
+            nbr, count, lam, lam_t = gather(x)
+            wp.launch(K["impulse_begin"], dim=n, inputs=[v, v0, acc, b], device=device)
+            for it in range(IMPULSE["iterations"]):
+                push, last = (IMPULSE["push"] if it == 0 else 0.0), int(it == IMPULSE["iterations"] - 1)
+                wp.launch(K["impulse_pairs"], dim=n, inputs=[x, v0, v, nbr, count, split, b, push, lam, lam_t, acc,
+                                                            dx], device=device)
+                wp.launch(K["impulse_apply"], dim=n, inputs=[x, v, acc, dx, b, push, last], device=device)
+        else:
+            nbr, count, _, _ = gather(x)
+            for _ in range(DEM["substeps"]):
+                wp.launch(K["dem_pairs"], dim=n, inputs=[x, v, nbr, count, b, acc], device=device)
+                wp.launch(K["dem_advance"], dim=n, inputs=[x, v, acc, b], device=device)
 
     for _ in range(settle):
         step()
     wp.synchronize_device(device)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for _ in range(timed):
         step()
     wp.synchronize_device(device)
     seconds = time.perf_counter() - t0
-    return {"rate": n * timed / seconds, "seconds": seconds, "mean_overlap": mean_overlap(x.numpy().astype(np.float64))}
+    # (cpu_seconds: this process's CPU time, for a loaded machine; Warp's CPU backend is one thread)
+    out = {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": time.process_time() - c0,
+           "mean_overlap": mean_overlap(x.numpy().astype(np.float64)),
+           **speeds(v.numpy()),
+           "dropped": int(dropped.numpy()[0])}
+    return out
+
+
+def speeds(v: np.ndarray) -> dict:
+    """The largest speed, and the 99th percentile (a few particles still rolling off, or many
+    moving: an explosion)."""
+    speed = np.linalg.norm(v, axis=1)
+    return {"max_speed": float(speed.max()), "speed_p99": float(np.percentile(speed, 99))}
 
 
 def mean_overlap(x: np.ndarray) -> float:
@@ -219,6 +682,49 @@ def mean_overlap(x: np.ndarray) -> float:
 
 
 # ---------------------------------------------------------------------- main
+WARP_NOTES = {
+    "pbd": lambda: f"PBD Jacobi, {PBD['passes']} passes, SOR {PBD['omega']}",
+    "impulse": lambda: f"impulse Jacobi, {IMPULSE['iterations']} iterations, warm-started",
+    "dem": lambda: (f"linear DEM, k {DEM['stiffness']:g} N/m, {DEM['substeps']} substeps "
+                    f"({dem_parameters()['dt'] * 1e6:.0f} us)"),
+}
+
+
+def bed_row(n: int, ours: dict, theirs: dict) -> dict:
+    """The bed's JSON row: every Warp variant's figures and tai_coll's ratio to each, and to the
+    fastest of them (Warp's best; the overlaps stand beside the rates, not in the choice)."""
+    best = max(theirs, key=lambda k: theirs[k]["rate"])
+    return {"row": "bed", "particles": n, "tai_coll": ours, "warp": theirs,
+            "ratio": {k: ours["rate"] / t["rate"] for k, t in theirs.items()},
+            "warp_best": best, "ratio_to_best": ours["rate"] / theirs[best]["rate"]}
+
+
+def print_table(rows: list, header: str) -> None:
+    print(header)
+    print(f"{'row':<6} {'particles':>10}  {'solver':<9} {'steps/s':>10} {'tai_coll/it':>11} {'overlap':>8} "
+          f"{'max speed':>10}  notes")
+
+    def line(row, particles, solver, res, ratio, notes):
+        overlap = f"{res['mean_overlap'] * 100:.2f}%r" if "mean_overlap" in res else ""
+        speed = f"{res['max_speed']:.3f}m/s" if "max_speed" in res else ""
+        ratio = f"{ratio:.2f}x" if ratio is not None else ""
+        print(f"{row:<6} {particles:>10}  {solver:<9} {res['rate']:>10.3e} {ratio:>11} {overlap:>8} {speed:>10}  "
+              f"{notes}")
+
+    for r in rows:
+        if r["row"] == "layer":
+            line("layer", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
+                 f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} mm")
+            line("", "", "warp", r["warp"], r["ratio"], f"one kernel a step; lowest centre "
+                 f"{r['warp']['lowest'] * 1e3:.3f} mm")
+            continue
+        line("bed", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None, "Gauss-Seidel impulses (default)")
+        for k, res in r["warp"].items():
+            notes = WARP_NOTES[k]() + (f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
+            line("", "", k, res, r["ratio"][k], notes)
+        print(f"{'':<6} {'':>10}  tai_coll against Warp's best ({r['warp_best']}): {r['ratio_to_best']:.2f}x")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rows", default="layer,bed")
@@ -227,10 +733,16 @@ def main(argv=None):
     parser.add_argument("--bed-particles", type=int, default=100_000)
     parser.add_argument("--settle", type=int, default=300, help="bed: steps to settle (default 300)")
     parser.add_argument("--timed", type=int, default=100, help="bed: steps timed (default 100)")
+    parser.add_argument("--warp-variants", default=",".join(WARP_VARIANTS),
+                        help="bed: Warp's solvers, any of pbd,impulse,dem (default all three)")
     parser.add_argument("--arch", default="cpu")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
     args = parser.parse_args(argv)
+    variants = [v for v in args.warp_variants.split(",") if v]
+    unknown = sorted(set(variants) - set(WARP_VARIANTS))
+    if unknown or not variants:
+        parser.error(f"--warp-variants: choose from {','.join(WARP_VARIANTS)}; got {args.warp_variants!r}")
     try:
         import warp as wp
     except ImportError:
@@ -250,20 +762,15 @@ def main(argv=None):
     if "bed" in wanted:
         n = args.bed_particles
         ours = tai_coll_bed(n, args.settle, args.timed)
-        theirs = warp_bed(wp, kernels, n, args.settle, args.timed, device)
-        rows.append({"row": "bed", "particles": n, "tai_coll": ours, "warp": theirs, "ratio": ours["rate"] / theirs["rate"]})
-    print(f"tai_coll {tc.__version__} ({args.arch}, {args.threads if args.arch == 'cpu' else ''} threads) against "
-          f"Warp {wp.__version__} ({device}), f32, dt {DT:.4g} s")
-    print(f"{'row':<6} {'particles':>10} {'tai_coll steps/s':>17} {'Warp steps/s':>13} {'ratio':>6}  notes")
-    for r in rows:
-        if r["row"] == "layer":
-            notes = f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} / {r['warp']['lowest'] * 1e3:.3f} mm"
-        else:
-            notes = (f"mean overlap {r['tai_coll']['mean_overlap'] * 100:.2f} % / "
-                     f"{r['warp']['mean_overlap'] * 100:.2f} % of r (Warp: PBD Jacobi, 4 passes)")
-        print(f"{r['row']:<6} {r['particles']:>10,} {r['tai_coll']['rate']:>17.3e} {r['warp']['rate']:>13.3e} "
-              f"{r['ratio']:>5.2f}x  {notes}")
-    report = {"benchmark": "bench_warp", "machine": machine_info(args), "warp": wp.__version__, "rows": rows}
+        theirs = {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}
+        rows.append(bed_row(n, ours, theirs))
+    print_table(rows, f"tai_coll {tc.__version__} ({args.arch}, {args.threads if args.arch == 'cpu' else ''} "
+                      f"threads) against Warp {wp.__version__} ({device}), f32, dt {DT:.4g} s; steps/s: "
+                      f"particle-steps per second (bed: steps of dt; overlap: mean of touching pairs)")
+    settings = {"pbd": PBD, "impulse": IMPULSE, "dem": {**DEM, "density": DEM_DENSITY, **dem_parameters()},
+                "rest_speed": REST_SPEED, "list_capacity": CAPACITY}
+    report = {"benchmark": "bench_warp", "machine": machine_info(args), "warp": wp.__version__,
+              "warp_settings": settings, "rows": rows}
     print(f"wrote {write_json(args.out, report)}")
 
 
