@@ -166,7 +166,7 @@ def test_drop_sweep_gives_the_closed_form_bounce_and_records_a_failure(drop_scri
     assert [(r["restitution"], r["height"]) for r in rows] == [(e, h) for e in (0.5, 0.8, 1.5) for h in (0.05, 0.1)]
     for row in rows:
         assert row["pid"] != os.getpid() and row["node"]
-        assert row["wall_s"] > 0
+        assert row["wall_time"] > 0
         if row["restitution"] > 1:
             assert row["status"].startswith("ValueError") and "restitution" in row["status"]
             assert row["v_after"] is None
@@ -187,7 +187,7 @@ def test_python_api_returns_the_rows_run_in_workers():
     for row, e in zip(rows, (0.6, 0.9)):
         assert row["status"] == "ok" and row["pid"] != os.getpid()
         assert row["v_after"] == pytest.approx(e * np.sqrt(2 * G * 0.08), rel=0.01)
-    assert set(rows[0]) == {"run", "restitution", "height", "v_after", "wall_s", "pid", "node", "status"}
+    assert set(rows[0]) == {"run", "restitution", "height", "v_after", "wall_time", "pid", "node", "status"}
 
 
 def failing_metrics(scene):

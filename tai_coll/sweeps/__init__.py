@@ -154,7 +154,7 @@ def sweep(scene_fn, grid: dict, frames: int, *, metrics=None, address: str | Non
           render: tuple | None = None, render_settings=None, progress: bool = True, folder=None) -> list:
     """Run scene_fn(**combination) for `frames` frames for every combination of `grid`'s
     values ({name: [values]}, the cartesian product), each as a Ray task, and return the rows
-    in the grid's order: {"run", <parameters>, <metrics(scene) after the last frame>, "wall_s",
+    in the grid's order: {"run", <parameters>, <metrics(scene) after the last frame>, "wall_time",
     "pid", "node", "status"} with status "ok" or the run's error ("ValueError: ..."). A run
     that fails does not stop the others.
 
@@ -225,7 +225,7 @@ def run_tasks(ray, job, runs, frames, options, workers, progress, save=None, kee
                 try:
                     rows[index] = ray.get(ref)
                 except Exception as error:  # the worker process died (out of memory, a crash)
-                    rows[index] = {"run": index, **params, "wall_s": None, "pid": None, "node": None,
+                    rows[index] = {"run": index, **params, "wall_time": None, "pid": None, "node": None,
                                    "status": describe(error)}
                 if keep_frame is not None:
                     keep_frame(rows[index])

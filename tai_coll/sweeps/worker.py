@@ -16,7 +16,7 @@ import numpy as np
 
 from .grid import is_number
 
-RESERVED = ("run", "wall_s", "pid", "node", "status", "frame_png")
+RESERVED = ("run", "wall_time", "pid", "node", "status", "frame_png")
 FRAME_PATTERN = "run_{:04d}.png"
 FRAME_KEY = "_frame"  # a rendered run's PNG bytes, on their way to the driver
 
@@ -103,7 +103,7 @@ def render_last(scene, size, make_settings) -> bytes:
 
 
 def run_one(job: dict, index: int, params: dict, frames: int, options: dict) -> dict:
-    """Run one combination; returns its row: run, the parameters, the metrics, wall_s, pid,
+    """Run one combination; returns its row: run, the parameters, the metrics, wall_time, pid,
     node, status ("ok" or the error) and, when rendering, FRAME_KEY: the last frame's PNG
     bytes (None when the run failed), which the driver writes and removes from the row."""
     import tai_coll as tc
@@ -127,7 +127,7 @@ def run_one(job: dict, index: int, params: dict, frames: int, options: dict) -> 
     except Exception as error:
         status = describe(error)
     row.update(metrics)
-    row.update(wall_s=round(time.perf_counter() - start, 4), pid=os.getpid(), node=node_address(), status=status)
+    row.update(wall_time=round(time.perf_counter() - start, 4), pid=os.getpid(), node=node_address(), status=status)
     if options.get("render"):
         row[FRAME_KEY] = frame
     return row
