@@ -4,12 +4,8 @@ warning filters or SyntaxWarnings in the way of a user's own test run."""
 
 import ast
 import re
-import subprocess
-import sys
-import textwrap
 from pathlib import Path
 
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "tai_coll"
@@ -176,48 +172,6 @@ def test_readme_is_a_users_guide():
 
 def test_pyproject_hides_no_warnings():
     assert "filterwarnings" not in (ROOT / "pyproject.toml").read_text()
-
-
-@pytest.mark.slow
-def test_a_users_pytest_run_of_scenes_shows_no_syntax_warning(tmp_path):
-    # A user's own test file, run by pytest in a fresh process with SyntaxWarnings as errors:
-    # every scene script, and every solver path with particle pairs (Gauss-Seidel, Jacobi,
-    # DEM with springs, spin and Verlet lists). Taichi transforms a kernel's source, where
-    # it would warn, in every process that launches it; the runtime's settings are the
-    # suite's, so the compiled kernels come from the offline cache the suite shares.
-    (tmp_path / "test_user.py").write_text(textwrap.dedent(f"""
-        import importlib.util
-        from pathlib import Path
-
-        import numpy as np
-        import tai_coll as tc
-
-        SCENES = Path({str(ROOT / "scenes")!r})
-
-        def test_scenes_run():
-            tc.init(arch="cpu", precision="f64", threads=2, seed=0)
-            for path in sorted(SCENES.glob("*.py")):
-                spec = importlib.util.spec_from_file_location(path.stem, path)
-                module = importlib.util.module_from_spec(spec)
-                spec.loader.exec_module(module)
-                module.scene().step(1)
-            rng = np.random.default_rng(0)
-            cases = [(tc.ImpulseSolver(), {{}}), (tc.ImpulseSolver(), dict(method="jacobi")),
-                     (tc.PenaltySolver(hertz=200.0, spin=True), dict(tangential_springs=True, verlet_skin=0.005)),
-                     (tc.PenaltySolver(hertz=200.0), {{}})]
-            for solver, options in cases:
-                s = tc.Scene(dt=1e-4, substeps=2, solver=solver)
-                s.add_collider(tc.Plane())
-                s.enable_particle_collisions(**options)
-                s.add_particles(positions=rng.uniform(-0.05, 0.05, (100, 3)) + (0.0, 0.1, 0.0), radius=0.005)
-                s.step(2)
-                assert s.particle_overlap()["pairs"] >= 0
-        """))
-    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-W",
-                           "error::SyntaxWarning", str(tmp_path / "test_user.py")], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=900)
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    assert "SyntaxWarning" not in done.stdout + done.stderr
 
 
 def test_the_readmes_scene_runs_clean():
