@@ -1,11 +1,11 @@
 """The codebase's own promises, checked by reading it: layers that import only downwards,
 small modules, kernels with named arguments, citations that resolve, a user's README, and no
-warning filters or SyntaxWarnings in the way of a user's own test run."""
+warning filters in the way of a user's own test run (tests/test_scenes.py runs one, checking
+for SyntaxWarnings)."""
 
 import ast
 import re
 from pathlib import Path
-
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "tai_coll"
