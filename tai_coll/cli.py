@@ -43,9 +43,9 @@ import time
 import traceback
 from pathlib import Path
 
-from .runtime import MAX_THREADS
-from .scripts import (DEFAULT_FRAMES, ScriptError, UsageError, build_scene, check_script_path, check_writable,
-                      load_script, parse_resolution, render_settings, script_frames, script_traceback)
+from .scripts import (DEFAULT_FRAMES, ScriptError, UsageError, build_scene, check_script_path, check_threads,
+                      check_writable, load_script, parse_resolution, render_settings, script_frames,
+                      script_traceback)
 
 ARCHS = ("cpu", "cuda", "vulkan", "auto")
 DEFAULT_RES = (1280, 720)
@@ -117,8 +117,7 @@ def check_run_args(args):
         raise UsageError(f"--frames must be >= 1; got {args.frames}")
     if args.fps is not None and not 0 < args.fps < MAX_FPS:
         raise UsageError(f"--fps must be > 0 and < {MAX_FPS}; got {args.fps:g}")
-    if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
-        raise UsageError(f"--threads must be from 1 to {MAX_THREADS}; got {args.threads}")
+    check_threads(args.threads)
     args.resolution = parse_resolution(args.res) if args.res is not None else None
     args.formats = parse_formats(args.export) if args.export is not None else ()
     if args.checkpoint_every is not None and args.checkpoint_every < 1:

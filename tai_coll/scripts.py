@@ -25,6 +25,14 @@ class ScriptError(Exception):
         self.path, self.error = path, error
 
 
+def check_threads(threads):
+    """UsageError unless --threads is None (all cores) or from 1 to MAX_THREADS."""
+    from .runtime import MAX_THREADS
+
+    if threads is not None and not 1 <= threads <= MAX_THREADS:
+        raise UsageError(f"--threads must be from 1 to {MAX_THREADS}; got {threads}")
+
+
 def parse_resolution(text: str):
     from .render.renderer import MAX_SIZE
 

@@ -15,7 +15,7 @@ import sysconfig
 import time
 from pathlib import Path
 
-from ..runtime import MAX_THREADS
+from ..runtime import ARCHS, MAX_THREADS
 from .grid import check_grid, check_signature, combinations, parse_param, parse_params, parse_value
 from .results import read_results, write_results
 from .sheet import contact_sheet, layout
@@ -24,9 +24,8 @@ __all__ = ["sweep", "parse_param", "parse_params", "parse_value", "combinations"
            "contact_sheet", "layout", "ray_missing", "RAY_HINT"]
 
 RAY_HINT = "pip install 'tai_coll[sweep]'"
-ARCHS = ("auto", "cpu", "gpu", "cuda", "vulkan", "metal")
-GPU_ARCHS = ("auto", "gpu", "cuda", "vulkan", "metal")
-LOCAL_OBJECT_STORE = 256 * 1024 ** 2  # bytes: rows are small, frames go to disk from the workers
+GPU_ARCHS = tuple(arch for arch in ARCHS if arch != "cpu")  # the archs a run may take a GPU for
+LOCAL_OBJECT_STORE = 256 * 1024 ** 2  # bytes: rows and their compressed frames are small
 SAVE_EVERY = 5.0  # seconds between rewrites of the results while runs finish
 
 

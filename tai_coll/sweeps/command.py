@@ -6,7 +6,6 @@ import importlib.util
 import time
 from pathlib import Path
 
-from ..runtime import MAX_THREADS
 from . import RAY_HINT, ray_missing, sweep
 from .grid import check_signature, parse_params
 
@@ -16,7 +15,7 @@ MAX_PRINTED = 40  # rows printed; results.csv has them all
 
 def check_arguments(args):
     """(script path, grid, out folder, frame size or None); a UsageError saying what is wrong."""
-    from ..scripts import UsageError, check_script_path, check_writable, parse_resolution
+    from ..scripts import UsageError, check_script_path, check_threads, check_writable, parse_resolution
 
     path = check_script_path(args.scene)
     try:
@@ -27,8 +26,7 @@ def check_arguments(args):
         raise UsageError(f"--frames must be >= 1; got {args.frames}")
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be >= 1; got {args.workers}")
-    if not 1 <= args.threads <= MAX_THREADS:
-        raise UsageError(f"--threads must be from 1 to {MAX_THREADS}; got {args.threads}")
+    check_threads(args.threads)
     if args.res is not None and not args.render:
         raise UsageError("--res sets the size of the frames --render writes: add --render")
     size = (parse_resolution(args.res) if args.res is not None else DEFAULT_RES) if args.render else None

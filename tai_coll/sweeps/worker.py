@@ -6,7 +6,6 @@ one when the settings are the same), so a kernel compiles once per worker; Taich
 cache keeps it on disk for the workers after. Nothing here raises: a failure becomes the
 row's status, so the other runs of the sweep go on."""
 
-import math
 import os
 import pickle
 import sys
@@ -132,7 +131,3 @@ def run_one(job: dict, index: int, params: dict, frames: int, options: dict) -> 
         row[FRAME_KEY] = frame
     return row
 
-
-def finite_or_none(value):
-    """NaN and infinities as None (JSON has no such numbers)."""
-    return None if isinstance(value, float) and not math.isfinite(value) else value
