@@ -17,7 +17,7 @@ as `HashGrid.lists` (types.ListArgs).
 import numpy as np
 import taichi as ti
 
-from .. import sorting
+from .. import runtime, sorting
 from ..types import ACTIVE, ARRAY, GridArgs, ListArgs, ivec3, vec3, vec4
 
 NEIGHBOUR_CAPACITY = 48  # neighbours kept per particle; more are counted as overflow
@@ -123,24 +123,38 @@ def query_range(home: ivec3, q, bits: ivec3, starts: ti.template()):
 
 
 @ti.func
-def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, by_radius, found, touch,
-              entries: ti.template(), sorted_xr: ti.template(), neighbours: ti.template()):
+def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, forward: ti.template(), found, touch,
+              sorted_xr: ti.template(), entries: ti.template(), local: ti.template(), kept: ti.template(),
+              neighbours: ti.template()):
     """Entries begin..end within reach (r_i + r_j + margin + margin_radii min(r_i, r_j)) of
-    particle i (at `slot`): append them to i's list; count those touching it. by_radius:
-    forward lists owned by the smaller particle, only the larger ones (or, of equal radius,
-    those sorted after i) are kept. Other cells may share these buckets (cells a table width apart),
-    but their particles are at least a table width minus two cells away (three cells or
-    more, see HashGrid), beyond reach, so the distance test alone tells them apart.
-    Branch-free: most candidates are out of reach and which ones is not predictable; every
-    candidate is written at the list's end (the spare last column once the list is full)
-    and only those in reach advance it."""
+    the particle at `slot` (position xi, radius ri): append their slots to `kept`; count those
+    touching it. forward (compile time): FORWARD_SORTED, entries begin..end all lie after
+    `slot`; FORWARD_RADIUS, lists owned by the smaller particle: only the larger ones (or, of
+    equal radius, those sorted after it) are kept. Other cells may share these buckets
+    (cells a table width apart), but their particles are at least a table width minus two cells
+    away (three cells or more, see HashGrid), beyond reach, so the distance test alone tells
+    them apart. local (compile time; the CPU's way): the slots go to `kept`, a local array, and
+    the caller copies them to i's list; branch-free, since most candidates are out of reach
+    and which ones is not predictable: every candidate is written at the array's end (its
+    spare last place once full) and only those in reach advance it. Writing the lists
+    directly, to memory the compiler cannot tell apart from the grid's arrays, made it reload
+    their addresses for every candidate: the kernel took 1.5 times as long on the CPU. On a
+    GPU a local array that large lives in slow memory, so there each kept one goes straight
+    to `neighbours` (row i)."""
     for k in range(begin, end):
         other = sorted_xr[k]
         d2 = (xi - other.xyz).norm_sqr()
         contact = ri + other.w
         reach = contact + margin + margin_radii * ti.min(ri, other.w)
-        keep = (k != slot) & (d2 < reach * reach) & ((by_radius == 0) | (other.w > ri) | ((other.w == ri) & (k > slot)))
-        neighbours[i, ti.min(found, NEIGHBOUR_CAPACITY)] = entries[k]
+        keep = d2 < reach * reach
+        if ti.static(forward == FULL):
+            keep &= k != slot
+        elif ti.static(forward == FORWARD_RADIUS):
+            keep &= (k != slot) & ((other.w > ri) | ((other.w == ri) & (k > slot)))
+        if ti.static(local):
+            kept[ti.min(found, NEIGHBOUR_CAPACITY)] = k
+        elif keep and found < NEIGHBOUR_CAPACITY:
+            neighbours[i, found] = entries[k]
         found += ti.cast(keep, ti.i32)
         touch += ti.cast(keep & (d2 < contact * contact), ti.i32)
     return found, touch
@@ -148,12 +162,13 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, by_radius
 
 @ti.kernel
 def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, margin_radii: float,
-                forward: ti.i32,
+                forward: ti.template(), local: ti.template(),
                 # outputs
                 lists: ListArgs, touching: ARRAY, overflow: ARRAY):
     """Each particle's neighbours within r_i + r_j + margin + margin_radii min(r_i, r_j)
     (forward: FORWARD_SORTED, only those after it in the sorted entries; FORWARD_RADIUS, only
-    those larger than it or, of equal radius, after it), and how many of them touch it."""
+    those larger than it or, of equal radius, after it), and how many of them touch it.
+    local: the CPU's way of collecting them (see _scan_row)."""
     # One particle per iteration, visited in bucket order (its own data and the cells
     # around it were just read by its bucket neighbours).
     for slot in range(grid.starts[grid.n_buckets]):
@@ -163,16 +178,29 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
         own = grid.sorted_xr[slot]
         xi = own.xyz
         home = cell_of(xi, inv_cell)
-        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):  # query_range's rows, unrolled: the hot path
-            for part in range(3):
-                begin, end = row_part(home + ivec3(-1, dy, dz), part, grid.bits, grid.starts)
-                # forward lists: only the entries after this one (most rows end before it)
-                found, touch = _scan_row(ti.select(forward == FORWARD_SORTED, ti.max(begin, slot + 1), begin), end,
-                                         slot, i, xi, own.w, margin, margin_radii, forward == FORWARD_RADIUS, found,
-                                         touch, grid.entries, grid.sorted_xr, lists.neighbours)
+        kept = ti.Vector([0] * (NEIGHBOUR_CAPACITY + 1 if ti.static(local) else 1), ti.i32)  # their slots
+        # forward lists: only the entries after this one (most rows end before it)
+        after = slot + 1 if ti.static(forward == FORWARD_SORTED) else 0
+        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):  # the nine rows, unrolled: the hot path
+            row = home + ivec3(-1, dy, dz)
+            first = bucket_of(row, grid.bits)
+            last = bucket_of(row + ivec3(2, 0, 0), grid.bits)
+            if last == first + 2:  # the row's three cells in three buckets in a row (see row_part)
+                found, touch = _scan_row(ti.max(grid.starts[first], after), grid.starts[last + 1], slot, i, xi,
+                                         own.w, margin, margin_radii, forward, found, touch, grid.sorted_xr,
+                                         grid.entries, local, kept, lists.neighbours)
+            else:  # it wraps around the table's edge: cell by cell
+                for part in range(3):
+                    h = bucket_of(row + ivec3(part, 0, 0), grid.bits)
+                    found, touch = _scan_row(ti.max(grid.starts[h], after), grid.starts[h + 1], slot, i,
+                                             xi, own.w, margin, margin_radii, forward, found, touch,
+                                             grid.sorted_xr, grid.entries, local, kept, lists.neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
+        if ti.static(local):
+            for q in range(found):
+                lists.neighbours[i, q] = grid.entries[kept[q]]
         lists.neighbour_count[i] = found
         touching[i] = touch
     for i in range(n):
@@ -223,8 +251,7 @@ class HashGrid:
         if self.list_capacity == self.capacity:
             return
         self.list_capacity = self.capacity
-        # one spare column: the neighbour kernel writes every candidate at the list's end
-        self.neighbours = ti.ndarray(ti.i32, shape=(self.capacity, NEIGHBOUR_CAPACITY + 1))
+        self.neighbours = ti.ndarray(ti.i32, shape=(self.capacity, NEIGHBOUR_CAPACITY))
         self.neighbour_count = ti.ndarray(ti.i32, shape=self.capacity)
         self.touching = ti.ndarray(ti.i32, shape=self.capacity)
         self._lists = None
@@ -263,8 +290,8 @@ class HashGrid:
         self.forward = bool(forward)
         mode = (FORWARD_RADIUS if by_radius else FORWARD_SORTED) if forward else FULL
         _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin,
-                    margin_radii=margin_radii, forward=mode, lists=self.lists, touching=self.touching,
-                    overflow=self.overflow)
+                    margin_radii=margin_radii, forward=mode, local=runtime.info().arch == "cpu", lists=self.lists,
+                    touching=self.touching, overflow=self.overflow)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
