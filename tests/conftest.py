@@ -22,12 +22,28 @@ TEST_ARCH = os.environ.get("TAI_COLL_TEST_ARCH", "cpu")
 
 
 def pytest_configure(config):
+    # pytest-xdist (the README's command): hand out the test files in the order collected
+    # (pytest_collection_modifyitems below), not by their count of tests, which put the file
+    # of the heaviest cases (test_scenes.py, several minutes alone) last: the other process
+    # then sat idle for minutes at the end
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
     if TEST_ARCH == "cpu":
         tc.init(arch="cpu", precision="f64", threads=2, seed=0)
     else:
         info = tc.init(arch=TEST_ARCH, precision="f64", seed=0)
         if info.arch != TEST_ARCH:
             raise pytest.UsageError(f"TAI_COLL_TEST_ARCH={TEST_ARCH!r}, but Taichi started on {info.arch!r}")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Files with slow-marked cases first, the most such cases first (the order within a
+    file kept): spread over two processes a file at a time, the longest files start early."""
+    slow = {}
+    for item in items:
+        slow[item.path] = slow.get(item.path, 0) + (item.get_closest_marker("slow") is not None)
+    first_seen = {path: k for k, path in enumerate(slow)}
+    items.sort(key=lambda item: (-slow[item.path], first_seen[item.path]))
 
 
 @pytest.fixture
