@@ -161,11 +161,13 @@ def _leaf_nearest(g: ti.template(), ci, leaf, p: vec3, best, point: vec3):
     last = 0
     ids = 0  # triangle ids at ipool[ids + first ... ids + last - 1]
     if leaf < 0:
-        _, _, dims, starts = _grid(g, ci)
-        home, _ = _home(g, ci, p)
+        # (each unused value its own name: one name given values of different types, as `_`
+        # would be here, compiles to a mismatched store without Taichi's CFG optimisation)
+        _origin, _h, dims, starts = _grid(g, ci)
+        home, _others = _home(g, ci, p)
         first, last = _cell_span(g, starts, dims, home)
     else:
-        _, _, ids = _tree(g, ci)
+        _boxes, _leaves, ids = _tree(g, ci)
         ids += leaf * TREE_LEAF
         last = ti.min(TREE_LEAF, g.ishape[ci][2] - leaf * TREE_LEAF)
     vertices = g.ishape[ci][0]
@@ -183,8 +185,8 @@ def _nearest(g: ti.template(), ci, p: vec3, reach):
     (INFINITY: at any range). The triangles of p's cell come first; the box tree
     (triangles.tree_nearest) settles what they leave open. Without a triangle within
     reach, (a lower bound on the distance, no less than reach; p; False)."""
-    boxes, leaves, _ = _tree(g, ci)
-    _, others = _home(g, ci, p)
+    boxes, leaves, _ids = _tree(g, ci)  # (not `_` twice: see _leaf_nearest)
+    _home_cell, others = _home(g, ci, p)
     dist, point, floor = tree_nearest(g, ci, boxes, leaves, p, reach, p, _leaf_nearest, True, others)
     found = dist < reach
     if not found:
