@@ -13,6 +13,7 @@ import ctypes
 import functools
 import inspect
 import numbers
+import os
 import platform
 from dataclasses import dataclass
 
@@ -92,11 +93,13 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
     common = dict(default_fp=fp, default_ip=ti.i32, random_seed=seed, log_level=ti.WARN,
                   offline_cache_max_size_of_files=OFFLINE_CACHE_BYTES)
     # On the CPU, without Taichi's own control-flow optimisations of its IR (store forwarding,
-    # dead stores): LLVM's passes, which run anyway, leave kernels as fast (the 1M layer and
-    # the 100k bed of tools/bench_warp.py within run-to-run noise), and the largest kernel, the
-    # impulse substep, compiles in 1.3 s instead of 8.6 (docs/design-notes.md, "Compile
+    # dead stores), unless the user's TI_CFG_OPTIMIZATION says otherwise: LLVM's passes, which
+    # run anyway, leave most kernels as fast, and the largest, the impulse substep, compiles in
+    # 1.3 s instead of 8.6; the test suite takes half the time (docs/design-notes.md, "Compile
     # time"). GPUs keep them: not measured there.
-    cpu = dict(arch=ti.cpu, cfg_optimization=False, **common)
+    cpu = dict(arch=ti.cpu, **common)
+    if not os.environ.get("TI_CFG_OPTIMIZATION"):
+        cpu["cfg_optimization"] = False
     if threads is not None:
         cpu["cpu_max_num_threads"] = threads
     if arch == "cpu":

@@ -29,6 +29,19 @@ def test_session_runs_on_the_test_arch_in_f64():
     assert abs(phi[0] - 1e-12) < 1e-15
 
 
+def test_cpu_kernels_compile_without_taichis_cfg_optimisation():
+    # runtime._start: on the CPU Taichi's CFG passes are off unless TI_CFG_OPTIMIZATION says
+    # otherwise (they cost most of the largest kernels' compile time, and LLVM optimises
+    # anyway); every test on the CPU compiles this way
+    import os
+
+    from taichi.lang import impl
+
+    setting = os.environ.get("TI_CFG_OPTIMIZATION")
+    expected = bool(int(setting)) if setting else TEST_ARCH != "cpu"
+    assert impl.current_cfg().cfg_optimization is expected
+
+
 def test_stale_generation_is_refused():
     import pytest
 
