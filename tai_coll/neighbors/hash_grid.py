@@ -8,7 +8,7 @@ any number of particles (no per-cell cap): a counting sort (tai_coll/sorting.py:
 exclusive prefix sum, a scatter, each bucket sorted by index so the result does not depend on
 thread timing) places every particle in one flat array.
 A query visits the 27 cells around a particle (nine rows of three, each row one range of
-entries where it does not wrap around the table, see `row_part`) and keeps the particles
+entries where it does not wrap around the table, see `query_spans`) and keeps the particles
 within reach (two cells can share a bucket, but never two cells near each other).
 Kernels that query the grid take its sort as `HashGrid.args` (types.GridArgs) and its lists
 as `HashGrid.lists` (types.ListArgs).
@@ -90,36 +90,33 @@ def _sort(x: ARRAY, radius: ARRAY, flags: ARRAY, n: ti.i32, inv_cell: float, n_b
 
 
 @ti.func
-def row_part(row: ivec3, part, bits: ivec3, starts: ti.template()):
-    """Entries begin..end of part 0, 1 or 2 of the row of three cells row .. row + (2, 0, 0).
-    Three cells in a row have three buckets in a row, so part 0 is the whole row and the
-    others are empty, unless the row wraps around the table's edge: then part p is cell
-    row + (p, 0, 0) alone. Queries loop over the 9 rows around a cell and their 3 parts."""
-    first = bucket_of(row, bits)
-    last = bucket_of(row + ivec3(2, 0, 0), bits)
-    begin = 0
-    end = 0
-    if last == first + 2:
-        if part == 0:
-            begin = starts[first]
-            end = starts[last + 1]
-    else:
-        h = bucket_of(row + ivec3(part, 0, 0), bits)
-        begin = starts[h]
-        end = starts[h + 1]
-    return begin, end
-
-
-QUERY_RANGES = 27  # nine rows of three parts: see query_range
+def query_spans(home: ivec3, bits: ivec3) -> ti.i32:
+    """How many ranges of entries a query around cell `home` reads (see query_span): the 27
+    cells around it lie in nine rows of three along x, and three cells in a row have three
+    buckets in a row, one range of entries, unless the row wraps around the table's edge
+    along x. Whether the rows wrap depends on home.x alone, the same for all nine: 9 ranges,
+    one a row, or 27, one a cell. Loop `for q in range(query_spans(home, bits))`."""
+    mask = (1 << bits.x) - 1
+    return ti.select(((home.x - 1) & mask) > mask - 2, 27, 9)
 
 
 @ti.func
-def query_range(home: ivec3, q, bits: ivec3, starts: ti.template()):
-    """Range q (0 .. QUERY_RANGES - 1) of the entries a query around cell `home` reads: part
-    q % 3 (see row_part) of row q // 3 of the nine rows of three cells, home.x - 1 .. home.x + 1
-    at each dy, dz in -1 .. 1. Loop over every q to visit the 27 cells around `home`."""
-    row = q // 3
-    return row_part(home + ivec3(-1, row // 3 - 1, row % 3 - 1), q % 3, bits, starts)
+def query_span(home: ivec3, q, spans, bits: ivec3, starts: ti.template()):
+    """Entries begin..end of range q of a query around cell `home` (spans: query_spans):
+    the rows at dy = q // 3 - 1, dz = q % 3 - 1 (9 spans), or cell q % 3 of row q // 3
+    (27). The same entries, in the same order, either way."""
+    begin = 0
+    end = 0
+    if spans == 9:
+        first = bucket_of(home + ivec3(-1, q // 3 - 1, q % 3 - 1), bits)
+        begin = starts[first]
+        end = starts[first + 3]
+    else:
+        row = q // 3
+        h = bucket_of(home + ivec3(q % 3 - 1, row // 3 - 1, row % 3 - 1), bits)
+        begin = starts[h]
+        end = starts[h + 1]
+    return begin, end
 
 
 @ti.func
@@ -185,7 +182,7 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
             row = home + ivec3(-1, dy, dz)
             first = bucket_of(row, grid.bits)
             last = bucket_of(row + ivec3(2, 0, 0), grid.bits)
-            if last == first + 2:  # the row's three cells in three buckets in a row (see row_part)
+            if last == first + 2:  # the row's three cells in three buckets in a row (see query_spans)
                 found, touch = _scan_row(ti.max(grid.starts[first], after), grid.starts[last + 1], slot, i, xi,
                                          own.w, margin, margin_radii, forward, found, touch, grid.sorted_xr,
                                          grid.entries, local, kept, lists.neighbours)
@@ -295,7 +292,7 @@ class HashGrid:
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
-        and radii in bucket order, for kernels that query the grid themselves (`query_range`,
+        and radii in bucket order, for kernels that query the grid themselves (`query_span`,
         with `args` and `inv_cell`). entries[:n] is an ordering of all n particles: the
         simulated ones in bucket order (starts[n_buckets] of them), then the others, so the
         particle store can be put in cell order by it (`ParticleStore.permute`)."""

@@ -21,7 +21,7 @@ import functools
 
 import taichi as ti
 
-from ...neighbors.hash_grid import QUERY_RANGES, cell_of, query_range
+from ...neighbors.hash_grid import cell_of, query_span, query_spans
 from ...response.laws import pair_normal
 from ...response.penalty import SPHERE_INERTIA, friction_force, rolling_torque, spring_damper, tangential_spring
 from ...types import ACTIVE, ARRAY, GridArgs, ListArgs, ParticleArgs, SpinArgs, Unused, vec3, vec4
@@ -234,8 +234,9 @@ def dem_force_kernel(precision: str, listed: bool, with_springs: bool, spinning:
                 if ti.static(with_springs):
                     kept = springs.held[i]
                 carried = 0
-                for q in range(QUERY_RANGES):
-                    begin, end = query_range(home, q, candidates.bits, candidates.starts)
+                spans = query_spans(home, candidates.bits)
+                for q in range(spans):
+                    begin, end = query_span(home, q, spans, candidates.bits, candidates.starts)
                     for k in range(begin, end):
                         touching, carried, total, turn = _gather(
                             i, own, batch, touching, k, candidates.sorted_xr[k], k == slot, kept, carried, total, turn,

@@ -4,7 +4,7 @@ grid's sort."""
 import numpy as np
 import taichi as ti
 
-from ...neighbors.hash_grid import QUERY_RANGES, cell_of, query_range
+from ...neighbors.hash_grid import cell_of, query_span, query_spans
 from ...types import ACTIVE, ARRAY, GridArgs, vec3
 
 
@@ -20,8 +20,9 @@ def _overlap_stats(grid: GridArgs, inv_cell: float, flags: ARRAY, n: ti.i32,
         worst = 0.0
         total = 0.0
         count = 0
-        for q in range(QUERY_RANGES):
-            begin, end = query_range(home, q, grid.bits, grid.starts)
+        spans = query_spans(home, grid.bits)
+        for q in range(spans):
+            begin, end = query_span(home, q, spans, grid.bits, grid.starts)
             for k in range(begin, end):
                 other = grid.sorted_xr[k]
                 overlap = (own.w + other.w - (own.xyz - other.xyz).norm()) / ti.min(own.w, other.w)

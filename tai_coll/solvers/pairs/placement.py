@@ -37,7 +37,7 @@ import math
 
 import taichi as ti
 
-from ...neighbors.hash_grid import QUERY_RANGES, cell_of, query_range
+from ...neighbors.hash_grid import cell_of, query_span, query_spans
 from ...response.laws import TINY
 from ...types import ACTIVE, ARRAY, ColliderArgs, GridArgs, ListArgs, ParticleArgs, vec3
 from ..detection import BOUND_SLOT, collider_sdf
@@ -96,8 +96,9 @@ def _grant_allowances(grid: GridArgs, inv_cell: float, placed_from: ti.i32,
         i = grid.entries[slot]
         home = cell_of(own.xyz, inv_cell)
         worst = 0.0
-        for q in range(QUERY_RANGES):
-            begin, end = query_range(home, q, grid.bits, grid.starts)
+        spans = query_spans(home, grid.bits)
+        for q in range(spans):
+            begin, end = query_span(home, q, spans, grid.bits, grid.starts)
             for k in range(begin, end):
                 j = grid.entries[k]
                 other = grid.sorted_xr[k]
@@ -247,8 +248,9 @@ def _walk(stage: ti.template(), i, slot, particles: ti.template(), candidates: t
                                               dx, push_distance, pairs, push, brake, left)
     else:
         home = cell_of(candidates.sorted_xr[slot].xyz, inv_cell)
-        for q in range(QUERY_RANGES):
-            begin, end = query_range(home, q, candidates.bits, candidates.starts)
+        spans = query_spans(home, candidates.bits)
+        for q in range(spans):
+            begin, end = query_span(home, q, spans, candidates.bits, candidates.starts)
             for k in range(begin, end):
                 if k != slot:
                     pairs, push, brake, left = _visit(stage, i, candidates.entries[k], xi, ri, ai, particles,
