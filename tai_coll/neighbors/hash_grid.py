@@ -178,20 +178,11 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
         kept = ti.Vector([0] * (NEIGHBOUR_CAPACITY + 1 if ti.static(local) else 1), ti.i32)  # their slots
         # forward lists: only the entries after this one (most rows end before it)
         after = slot + 1 if ti.static(forward == FORWARD_SORTED) else 0
-        for dy, dz in ti.static(ti.ndrange((-1, 2), (-1, 2))):  # the nine rows, unrolled: the hot path
-            row = home + ivec3(-1, dy, dz)
-            first = bucket_of(row, grid.bits)
-            last = bucket_of(row + ivec3(2, 0, 0), grid.bits)
-            if last == first + 2:  # the row's three cells in three buckets in a row (see query_spans)
-                found, touch = _scan_row(ti.max(grid.starts[first], after), grid.starts[last + 1], slot, i, xi,
-                                         own.w, margin, margin_radii, forward, found, touch, grid.sorted_xr,
-                                         grid.entries, local, kept, lists.neighbours)
-            else:  # it wraps around the table's edge: cell by cell
-                for part in range(3):
-                    h = bucket_of(row + ivec3(part, 0, 0), grid.bits)
-                    found, touch = _scan_row(ti.max(grid.starts[h], after), grid.starts[h + 1], slot, i,
-                                             xi, own.w, margin, margin_radii, forward, found, touch,
-                                             grid.sorted_xr, grid.entries, local, kept, lists.neighbours)
+        spans = query_spans(home, grid.bits)
+        for q in range(spans):
+            begin, end = query_span(home, q, spans, grid.bits, grid.starts)
+            found, touch = _scan_row(ti.max(begin, after), end, slot, i, xi, own.w, margin, margin_radii, forward,
+                                     found, touch, grid.sorted_xr, grid.entries, local, kept, lists.neighbours)
         if found > NEIGHBOUR_CAPACITY:
             ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
             found = NEIGHBOUR_CAPACITY
