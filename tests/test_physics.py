@@ -515,6 +515,58 @@ def test_free_flight_in_closed_form_matches_substep_integration():
         np.testing.assert_allclose(scene.velocities()[k], v, rtol=0, atol=1e-11)
 
 
+def _bouncer(setup, substeps):
+    """A particle bouncing (e = 0.7, no friction) in one of the set-ups below, substeps a
+    frame; returns the scene and its colliders."""
+    scene = make_scene(dt=1.0 / 1200.0, substeps=substeps)
+    bouncy = tc.Material(restitution=0.7, friction=0.0)
+    x0, v0 = [0.0, 0.05 + R, 0.0], [0.3, 0.0, 0.1]
+    colliders = []
+    if setup == "sphere":  # on top of a sphere of 1 m, then down its side
+        colliders.append((tc.Sphere(center=(0.0, -1.0, 0.0), radius=1.0), bouncy))
+    elif setup == "box":
+        colliders.append((tc.Box(center=(0.0, -0.5, 0.0), half_extents=(1.0, 0.5, 1.0)), bouncy))
+    else:
+        colliders.append((tc.Plane(**FLOOR), bouncy))
+    if setup == "channel":  # back and forth between two walls 6 cm apart, e = 1
+        for side in (-1.0, 1.0):
+            colliders.append((tc.Plane(point=(0.03 * side, 0.0, 0.0), normal=(-side, 0.0, 0.0)),
+                              tc.Material(restitution=1.0, friction=0.0)))
+        v0 = [1.9, 0.5, 0.0]  # (2 m/s would touch the walls exactly at substep ends: ties)
+    elif setup == "ceiling":  # thrown up against a ceiling 10 cm up, gravity pointing away from it
+        colliders.append((tc.Plane(point=(0.0, 0.1, 0.0), normal=(0.0, -1.0, 0.0)), bouncy))
+        v0 = [0.0, 2.0, 0.0]
+    for shape, material in colliders:
+        scene.add_collider(shape, material=material)
+    scene.add_particles(positions=[x0], velocities=[v0], radius=R)
+    return scene, [shape for shape, _ in colliders]
+
+
+@pytest.mark.parametrize("setup", ["plane", "sphere", "box", "channel", "ceiling"])
+def test_bounces_within_a_frame_follow_the_substeps(setup):
+    # Within a frame a particle that queried the colliders keeps the nearest one's separating
+    # plane and flies in closed form while it stays in front of it (and within the others'
+    # clearance): whole arcs between bounces, 60 substeps a frame. Substep by substep (one
+    # substep a frame, nothing kept) gives the same motion to round-off, every bounce included;
+    # nothing penetrates and the walls of e = 1 keep the speed across the channel.
+    frames, substeps = 12, 60
+    fast, shapes = _bouncer(setup, substeps)
+    slow, _ = _bouncer(setup, 1)
+    bounces = 0
+    for _ in range(frames):
+        vy = fast.velocities()[0, 1]
+        fast.step(1)
+        slow.step(substeps)
+        np.testing.assert_allclose(fast.positions(), slow.positions(), rtol=0, atol=1e-9)
+        np.testing.assert_allclose(fast.velocities(), slow.velocities(), rtol=0, atol=1e-8)
+        bounces += (vy < 0.0) != (fast.velocities()[0, 1] < 0.0)
+        for shape in shapes:
+            assert shape.signed_distance(fast.positions())[0] >= R * (1 - 2e-3)
+        if setup == "channel":
+            assert abs(fast.velocities()[0, 0]) == pytest.approx(1.9, rel=1e-9)
+    assert bounces >= 3
+
+
 def test_kept_clearance_is_dropped_when_particles_are_moved():
     # Step once far from the floor (a large clearance is kept), then teleport the particle
     # just above the floor moving down fast: the next step must see the floor.

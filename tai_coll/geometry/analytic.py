@@ -119,15 +119,23 @@ def convex_sdf(g: ti.template(), ci, kind, params: vec4, p: vec3):
 
 
 @ti.func
-def plane_crossing(x0: vec3, x1: vec3, r):
-    d0 = x0.y - r
-    d1 = x1.y - r
+def plane_heights_crossing(h0, h1, r):
+    """First contact (hit, t) of a sphere of radius r whose centre goes from height h0 to h1
+    above a plane."""
+    d0 = h0 - r
+    d1 = h1 - r
     hit = False
     t = 1.0
     if d0 < 0.0:
         hit, t = True, 0.0
     elif d1 < 0.0:
         hit, t = True, d0 / (d0 - d1)  # sign change of (x - P).n, linear in t
+    return hit, t
+
+
+@ti.func
+def plane_crossing(x0: vec3, x1: vec3, r):
+    hit, t = plane_heights_crossing(x0.y, x1.y, r)
     return hit, t, vec3(0.0, 1.0, 0.0)
 
 

@@ -105,7 +105,16 @@ def local_crossing(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, pa
 @ti.func
 def world_crossing(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params: vec4, center: vec3,
                    rotation: mat3, x0: vec3, x1: vec3, r):
-    """local_crossing for world points, the normal returned in world space."""
-    Rt = rotation.transpose()
-    hit, t, n = local_crossing(g, groups, ci, kind, params, Rt @ (x0 - center), Rt @ (x1 - center), r)
-    return hit, t, rotation @ n
+    """local_crossing for world points, the normal returned in world space. Planes, as in
+    world_sdf, skip the rotations: their crossing needs the heights along the normal only."""
+    hit = False
+    t = 1.0
+    n = vec3(0.0, 1.0, 0.0)
+    if kind == kinds.PLANE:
+        n = vec3(rotation[0, 1], rotation[1, 1], rotation[2, 1])
+        hit, t = analytic.plane_heights_crossing((x0 - center).dot(n), (x1 - center).dot(n), r)
+    else:
+        Rt = rotation.transpose()
+        hit, t, n_local = local_crossing(g, groups, ci, kind, params, Rt @ (x0 - center), Rt @ (x1 - center), r)
+        n = rotation @ n_local
+    return hit, t, n

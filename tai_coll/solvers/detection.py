@@ -56,15 +56,16 @@ def approaching(v: vec3, vs: vec3, n: vec3) -> bool:
 
 
 @ti.func
-def keep_two_smallest(first, first_id, second, value, value_id):
-    """Running (smallest, its owner, second smallest) over a sequence of values."""
+def keep_two_smallest(first, first_id, first_n: vec3, second, value, value_id, value_n: vec3):
+    """Running (smallest, its owner, its direction, second smallest) over a sequence of values."""
     if value < first:
         second = first
         first = value
         first_id = value_id
+        first_n = value_n
     elif value < second:
         second = value
-    return first, first_id, second
+    return first, first_id, first_n, second
 
 
 @ti.func
@@ -123,8 +124,17 @@ def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0
     contact pass after it the candidate velocity: one sweep serves both when the first finds
     nothing to bounce off); and the clearance of x1 (a lower bound of the gap over the
     colliders, a moving collider's less the distance it carried x0), the collider it belongs
-    to and the smallest over the others. kinematic: whether the table holds moving colliders
-    (compile time: without, none of the relative-motion code is compiled in).
+    to, its separating direction and the smallest over the others. kinematic: whether the
+    table holds moving colliders (compile time: without, none of the relative-motion code is
+    compiled in).
+
+    The separating direction u (a unit vector, or zero for none) says more than the clearance
+    g: the nearest collider lies wholly behind the plane u . y = u . x1 - g, offset by the
+    radius, so a particle whose centre stays in front of it cannot touch that collider, however
+    far it goes (docs/physics.md 3.7). It is the normal at x1 of a convex collider that x1 is
+    clear of (phi is the exact distance outside the analytic shapes, and a convex set lies
+    behind its tangent plane at the point nearest x1), or the direction from the bounding
+    sphere's centre when that sphere decided the clearance; zero for other shapes.
 
     A collider is a candidate when
     - x1 interferes (phi(x1) < r) and lies deeper than x0 did: a particle resting or sliding
@@ -147,6 +157,7 @@ def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0
     length = (x1 - x0).norm()
     clearance = INFINITY  # smallest gap lower bound over colliders, at x1
     nearest = -1          # the collider it belongs to
+    apart = vec3(0.0, 0.0, 0.0)  # its separating direction (zero: none)
     second = INFINITY     # the smallest over the other colliders
     best_t = 2.0
     best_gap = 0.0
@@ -172,9 +183,12 @@ def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0
                 start = carried(c, ci, x0)
                 path = (x1 - start).norm()
                 carry = (start - x0).norm()
-        reach = (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] - r
+        off_center = x1 - c.center1[ci]
+        distance = off_center.norm()
+        reach = distance - c.params[ci][BOUND_SLOT] - r
         if reach >= path:
-            clearance, nearest, second = keep_two_smallest(clearance, nearest, second, reach - carry, ci)
+            clearance, nearest, apart, second = keep_two_smallest(clearance, nearest, apart, second, reach - carry,
+                                                                  ci, off_center / distance)
             continue
         # k = 0: x1 against the end pose; k = 1: x0 against the start pose, only if needed.
         gap1 = 0.0
@@ -186,7 +200,11 @@ def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0
             phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0, r + path)
             if k == 0:
                 gap1, n1 = phi - r, n
-                clearance, nearest, second = keep_two_smallest(clearance, nearest, second, gap1 - carry, ci)
+                u = vec3(0.0, 0.0, 0.0)
+                if kinds.is_convex(c.kind[ci]) and gap1 >= 0.0:
+                    u = n
+                clearance, nearest, apart, second = keep_two_smallest(clearance, nearest, apart, second, gap1 - carry,
+                                                                      ci, u)
                 # Interference, or a clear end that the path may still reach (phi is
                 # 1-Lipschitz, so a gap beyond the path's length rules a crossing out).
                 candidate = gap1 < path
@@ -229,7 +247,7 @@ def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0
                     found, best_t, best_gap, found_n, found_vs, found_when = ci, t, gap1, n_v, vs, when_v
                 if (t < alt_t or (t == alt_t and gap1 < alt_gap)) and approaching(v_alt, vs, n_alt):
                     alt, alt_t, alt_gap, alt_n, alt_vs, alt_when = ci, t, gap1, n_alt, vs, when_alt
-    return found, found_n, found_vs, found_when, alt, alt_n, alt_vs, alt_when, clearance, nearest, second
+    return found, found_n, found_vs, found_when, alt, alt_n, alt_vs, alt_when, clearance, nearest, apart, second
 
 
 @ti.func

@@ -20,6 +20,8 @@ Every contact is taken relative to its collider (docs/physics.md 3.6): the kerne
 that code in only for a collider table with moving colliders (`kinematic`), so still scenes
 run the plain formulas.
 
+One particle's query and response lives in resolve.py; this module holds the kernels that
+run it (a launch of several substeps, and candidates from another phase) and the solver.
 Kernels take the particle store and the collider table as argument packs (`p`, `c`:
 types.ParticleArgs, types.ColliderArgs) and `groups`, the compile-time mask of the collider
 kinds compiled in; the solver launches them with every argument named (`_law`).
@@ -30,257 +32,17 @@ import numpy as np
 import taichi as ti
 
 from .. import validate
-from ..geometry import kinds
-from ..response.exchange import body_law, held
-from ..response.laws import WET_LAWS, respond
-from ..response.penalty import FIELD_NONE, apply_repulsion
+from ..response.laws import WET_LAWS
 from ..response.repulsion import RepulsionField, pack
-from ..types import ACTIVE, ARRAY, NON_FINITE, STAT_FAILSAFE, STAT_REPULSION, ColliderArgs, ParticleArgs, vec3
+from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, vec3
 from .base import Solver
-from .detection import (carried, detect, earliest_approach, is_still, keep_out, start_penetration,
-                        surface_velocity)
-from .integrate import (flag, flight_path_bound, flight_stays_inside, free_flight, state_status, store,
-                        symplectic_euler)
-
-# The last resort's settings as one kernel argument: the push fraction, then a repulsion
-# field's kind (0: none, push instead), profile, strength, decay and range.
-last_resort6 = ti.types.vector(6, float)
+from .detection import keep_out
+from .integrate import flag, state_status, store, symplectic_euler, try_flight_in_front, try_free_flight
+from .resolve import SCHEMES, last_resort6, resolve_particle, resolve_passes
 
 #: A particle's kept clearance when the last launch found it at a fixed point of its substep
 #: (impulse_substep). Negative, so every other reader takes it for "unknown" and queries.
 AT_REST = -2.0
-
-SIMPLE = 0
-MICRO = 1
-ELASTIC_CONTACT = 2
-EXACT_TIME = 3
-SCHEMES = {"simple": SIMPLE, "micro": MICRO, "elastic_contact": ELASTIC_CONTACT, "exact_time": EXACT_TIME}
-
-
-@ti.func
-def apply_law(c: ti.template(), kinematic: ti.template(), ci, i, inv_mass, x_ref: vec3, r, v: vec3, n: vec3,
-              vs: vec3, restitution, wet_law: ti.template(), depth=0.0):
-    """docs/physics.md 2 on the velocity relative to the collider's surface, with its material;
-    against a rigid body, the two-body law (docs/physics.md 7.2) for particle i of inverse
-    mass inv_mass centred at x_ref (radius r), which books the body's share in the ledger.
-    Returns (the new velocity, whether the law changed it: a body this particle has already
-    pushed away, as it sees the body, needs nothing more). depth: exchange.body_law's.
-    Bodies move (`kinematic`): tables without moving colliders compile none of this in."""
-    v_new = v
-    changed = True
-    body = False
-    if ti.static(kinematic):
-        body = c.body[ci] >= 0
-    if body:
-        v_new, changed = body_law(c, ci, i, inv_mass, x_ref, v, n, vs, x_ref - r * n, restitution, depth, wet_law)
-    else:
-        m = c.material[ci]
-        v_rel, dvn = respond(v - vs, n, restitution, m[1], m[2], wet_law)
-        v_new = vs + v_rel
-    return v_new, changed
-
-
-@ti.func
-def repel_start_penetrations(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(),
-                             i, x0: vec3, v0: vec3, x1: vec3, v1: vec3, r, m, slop, dt, last_resort: last_resort6,
-                             max_push_speed, wet_law: ti.template()):
-    """Last resort (docs/physics.md 3.4, seed 001): a particle already inside a collider at
-    time t keeps its penetration for this substep and is pushed out along the normal by
-    last_resort[0] (the push fraction) x depth, at most max_push_speed x dt. The push moves
-    the position only; the velocity gets the inelastic law (e = 0, friction as usual), so a
-    particle freed from a collider does not fly off with the push as velocity. With a
-    repulsion field in last_resort[1:] (seed 002), the field acts on the velocity, at gap
-    -depth, instead. A moving collider that the particle entered within the last substep
-    (start_penetration's `entered`) is a contact missed, not a penetration: the particle
-    goes out through the face it came in by, the whole way at once, and moves on with the
-    collider (e = 0), so a paddle's far face never pushes it out behind."""
-    push = vec3(0.0, 0.0, 0.0)
-    for ci in range(c.count):
-        inside, depth, n, point, entered = start_penetration(c, groups, kinematic, ci, x0, v0, r, slop, dt)
-        if inside and depth > 0.0:
-            vs = surface_velocity(c, ci, point)
-            held_here = False  # (held by its supports: the body is pushed out instead, exchange.body_law)
-            if ti.static(kinematic):
-                if c.body[ci] >= 0:
-                    held_here = held(c, i, n, v1, vs)
-            v1, changed = apply_law(c, kinematic, ci, i, 1.0 / m, x0, r, v1, n, vs, 0.0, wet_law, depth)
-            field_kind = ti.cast(last_resort[1], ti.i32)
-            if held_here:
-                pass
-            elif entered:
-                push += depth * n
-            elif field_kind == FIELD_NONE:
-                push += ti.min(last_resort[0] * depth, max_push_speed * dt) * n
-            else:
-                v1 = vs + apply_repulsion(v1 - vs, n, -depth, m, dt, field_kind, ti.cast(last_resort[2], ti.i32),
-                                          last_resort[3], last_resort[4], last_resort[5])
-            x1 = x0 + dt * v1 + push
-            ti.atomic_add(p.stats[STAT_REPULSION], 1)
-    return x1, v1, push
-
-
-@ti.func
-def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i, inv_mass,
-                   x0: vec3, push: vec3, v0: vec3, x1: vec3, v1: vec3, r, slop, dt, elastic_passes, contact_passes,
-                   first_contact_elastic: ti.template(), failsafe: ti.template(), wet_law: ti.template()):
-    """The simple, micro-collision and elastic-then-contact schemes as one loop.
-
-    Elastic passes (Implementation 3): the law with restitution on the start velocity v(t);
-    its change is added to the candidate (x1 += dt dv, v1 += dv).
-    Contact passes: the law on the average velocity, then re-integration. The average
-    velocity is v1 itself (recomputing it as (x1 - x0)/dt would add position round-off / dt,
-    which in f32 is enough to fake an approach). A pass with restitution (the first of
-    Implementations 1 and 2, when first_contact_elastic) re-integrates from the start,
-    x1 = x0 + push + dt v_new; an inelastic one (e = 0: every other pass, so the loop ends)
-    follows the path to the contact, at fraction `when` of the substep, and the new velocity
-    after it, x1 = x0 + when (x1 - x0) + (1 - when) (push + dt v_new), so a particle stops on
-    the surface it meets, at any dt (docs/physics.md 3.2). Against a moving collider all of
-    this is done relative to it: x0 carried with the collider to its end pose, v - v_s
-    (docs/physics.md 3.6); for still colliders the formulas above, without transforms.
-    If contacts remain after the cap: the failsafe stops the particle relative to the collider.
-    One call of `detect` serves every pass, which keeps the kernel small.
-    Returns (x1, v1, clearance of x1, or -1 when unknown).
-    """
-    v_start = v0
-    elastic_left = elastic_passes
-    contact_done = 0
-    resolved = False
-    clearance = -1.0
-    last_vs = vec3(0.0, 0.0, 0.0)
-    last_start = x0
-    ci = -1
-    n = vec3(0.0, 1.0, 0.0)
-    vs = vec3(0.0, 0.0, 0.0)
-    for _ in range(elastic_passes + contact_passes + 1):
-        v_test = v_start
-        if elastic_left == 0:
-            v_test = v1
-        ci, n, vs, when, ci_alt, n_alt, vs_alt, when_alt, near, nearest, second = detect(c, groups, kinematic, x0, x1,
-                                                                                          v_test, v1, r, slop)
-        if ci < 0 and elastic_left > 0 and ci_alt >= 0:
-            # Nothing to bounce off, but the candidate velocity meets a contact: go straight to
-            # the contact passes with what this sweep found.
-            elastic_left = 0
-            ci, n, vs, when = ci_alt, n_alt, vs_alt, when_alt
-        if ci < 0:
-            resolved = True
-            clearance = near
-            break
-        last_vs = vs
-        start = x0  # where the path relative to the collider starts: x0, carried if it moves
-        if ti.static(kinematic):
-            start = carried(c, ci, x0)
-        last_start = start
-        restitution = c.material[ci][0]
-        if elastic_left > 0:
-            elastic_left -= 1
-            v_new, changed = apply_law(c, kinematic, ci, i, inv_mass, x0, r, v_start, n, vs, restitution, wet_law)
-            dv = v_new - v_start
-            v_start = v_new
-            v1 += dv
-            x1 += dt * dv
-            # (a body's pose for the substep is a prediction, redone with the velocity its
-            # particles leave it, docs/physics.md 7.1: the particle keeps x1 = x0 + dt v1)
-            if ti.static(kinematic) and c.body[ci] < 0:
-                # relative to the collider: the start carried with it rigidly (docs/physics.md
-                # 3.6), not along its surface velocity at the contact, which a turning
-                # collider's surface leaves behind (nothing changes for a still one)
-                x1 += (start - x0) - dt * vs
-        else:
-            if contact_done == contact_passes:
-                break
-            if ti.static(not first_contact_elastic):
-                restitution = 0.0
-            elif contact_done > 0:
-                restitution = 0.0
-            x1_before = x1
-            v1, changed = apply_law(c, kinematic, ci, i, inv_mass, x0, r, v1, n, vs, restitution, wet_law)
-            if not changed:
-                # a body this particle has pushed away, as it sees the body (docs/physics.md
-                # 6.2); the table's pose for it is the prediction the body's new velocity redoes
-                resolved = True
-                break
-            # Re-integrate relative to the collider (docs/physics.md 3.2 and 3.6). An inelastic
-            # pass follows the relative path up to the contact, at fraction `when` of the
-            # substep, and the new relative velocity after it: the particle ends on the surface
-            # it met instead of where it stood at time t, which would leave it resting up to
-            # |g| dt^2 above a floor. A pass with restitution re-integrates from the start,
-            # x1 = x0 + dt v_new (Implementations 1 and 2). Still colliders skip the transforms.
-            if restitution > 0.0:
-                when = 0.0
-            x1 = start + when * (x1_before - start) + (1.0 - when) * (push + dt * (v1 - vs))
-            contact_done += 1
-            # A still, convex collider cannot be met again after its own contact pass: x1
-            # now lies on the outer side of the plane tangent at the contact (or no deeper
-            # than x0 did). When no other collider is within reach, skip the confirming sweep.
-            others = near if nearest != ci else second
-            if (kinds.is_convex(c.kind[ci]) and is_still(c, ci) and push.norm_sqr() == 0.0
-                    and others - (x1 - x1_before).norm() >= (x1 - x0).norm()):
-                resolved = True
-                break
-    if ti.static(failsafe):
-        if not resolved:
-            # Failsafe (docs/physics.md 3.4): stop relative to the collider, carried with it.
-            v1 = last_vs
-            x1 = last_start + push
-            ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
-    return x1, v1, clearance
-
-
-@ti.func
-def resolve_exact_time(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i,
-                       inv_mass, x0: vec3, v1: vec3, r, slop, dt, max_iterations, rest_speed, wet_law: ti.template()):
-    """Backing up time: move along the straight path to the first contact, apply the law
-    there, go on for the remaining time. Approach speeds below rest_speed get e = 0, so a
-    resting particle does not bounce on the velocity gravity gave it this substep."""
-    x = x0
-    v = v1
-    remaining = dt
-    done = False
-    last_vs = vec3(0.0, 0.0, 0.0)
-    for _ in range(max_iterations):
-        x_end = x + remaining * v
-        ci, t, n, vs = earliest_approach(c, groups, kinematic, x, x_end, v, 1.0 - remaining / dt, dt, r, slop)
-        if ci < 0:
-            x = x_end
-            done = True
-            break
-        x = x + t * remaining * v
-        restitution = 0.0
-        if -(v - vs).dot(n) > rest_speed:
-            restitution = c.material[ci][0]
-        v, changed = apply_law(c, kinematic, ci, i, inv_mass, x, r, v, n, vs, restitution, wet_law)
-        if not changed:  # a body this particle has pushed away (as in resolve_passes)
-            x = x + (1.0 - t) * remaining * v
-            done = True
-            break
-        remaining *= 1.0 - t
-        last_vs = vs
-    if not done:
-        x = x + remaining * last_vs
-        ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
-    return x, v
-
-
-@ti.func
-def try_free_flight(x0: vec3, v0: vec3, clearance, gravity: vec3, dt, k, use_domain: ti.template(), domain_lo: vec3,
-                    domain_hi: vec3):
-    """k substeps at once when the clearance covers their whole path (and, with a domain,
-    every substep's end stays inside it). Returns (done, x_k, v_k, clearance left)."""
-    done = False
-    xk, vk = x0, v0
-    left = clearance
-    if clearance > 0.0:
-        path = flight_path_bound(v0, gravity, dt, k) * (1.0 + 1e-5)
-        if clearance > path:
-            xk, vk = free_flight(x0, v0, gravity, dt, k)
-            inside = True
-            if ti.static(use_domain):
-                inside = flight_stays_inside(x0, v0, gravity, dt, k, domain_lo, domain_hi)
-            if inside and state_status(xk, vk, False, domain_lo, domain_hi) == ACTIVE:
-                done = True
-                left = clearance - path
-    return done, xk, vk, left
 
 
 @ti.kernel
@@ -326,9 +88,27 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
             else:
                 status = ACTIVE
                 at_rest = False
+                # Since the last query: the nearest collider's separating direction (zero: none)
+                # and the level that apart . x must stay above for the particle to be clear of
+                # it, and the clearance from the other colliders less the path since.
+                apart = vec3(0.0, 0.0, 0.0)
+                level = 0.0
+                others = -1.0
                 s = 0
                 while s < n_substeps:
-                    if s > 0:  # the clearance may have been renewed by a query
+                    planar = False
+                    if ti.static(not kinematic):
+                        planar = apart.norm_sqr() > 0.0
+                    if planar:  # (the clearance was renewed by a query in this launch)
+                        k, xk, vk, ahead, left = try_flight_in_front(x0, v0, apart, level, others, gravity, dt,
+                                                                     n_substeps - s, use_domain, domain_lo,
+                                                                     domain_hi)
+                        if k > 0:
+                            x0, v0, others, clearance = xk, vk, left, ti.min(ahead, left)
+                            s += k
+                            if s == n_substeps:
+                                break
+                    elif s > 0:  # the clearance may have been renewed by a query
                         flown, xk, vk, left = try_free_flight(x0, v0, clearance, gravity, dt, n_substeps - s,
                                                               use_domain, domain_lo, domain_hi)
                         if flown:
@@ -338,13 +118,25 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                     x1, v1 = symplectic_euler(x0, v0, gravity, dt)
                     step = (x1 - x0).norm()
                     unchanged = False
-                    if clearance > step:
+                    clear_start = clearance >= 0.0  # (x0 is clear of every collider)
+                    clear = False
+                    if planar:
+                        # In front of the nearest collider's plane at both ends of the straight
+                        # step, and within the others' clearance: nothing to meet, however short
+                        # the clearance around x0 (a particle rising off a floor). The clearance
+                        # at x1 is the smaller of the two.
+                        others -= step
+                        ahead = apart.dot(x1) - level
+                        clear = ahead > 0.0 and others > 0.0
+                        clearance = ti.min(ahead, others)
+                    elif clearance > step:
+                        clear = True
                         clearance -= step
-                    else:
-                        x1, v1, clearance = resolve_particle(particles, colliders, groups, kinematic, i, x0, v0, x1,
-                                                             v1, dt, scheme, wet_law, max_iterations,
-                                                             elastic_iterations, last_resort, max_push_speed,
-                                                             slop_fraction, rest_speed)
+                    if not clear:
+                        x1, v1, clearance, apart, level, others = resolve_particle(
+                            particles, colliders, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
+                            max_iterations, elastic_iterations, last_resort, max_push_speed, slop_fraction,
+                            rest_speed, clear_start)
                         unchanged = all(x1 == x0) and all(v1 == v0)
                     status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
                     if status == NON_FINITE:
@@ -362,35 +154,6 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                     clearances[i] = AT_REST
                 if status != ACTIVE:
                     flag(particles, i, status)
-
-
-@ti.func
-def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i, x0: vec3,
-                     v0: vec3, x1: vec3, v1: vec3, dt, scheme: ti.template(), wet_law: ti.template(), max_iterations,
-                     elastic_iterations, last_resort, max_push_speed, slop_fraction, rest_speed):
-    """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
-    time t against the colliders with the chosen scheme. Returns (x1, v1, clearance)."""
-    r = p.radius[i]
-    inv_mass = 1.0 / p.mass[i]
-    slop = slop_fraction * r
-    clearance = -1.0
-    push = vec3(0.0, 0.0, 0.0)
-    if ti.static(scheme != SIMPLE):
-        x1, v1, push = repel_start_penetrations(p, c, groups, kinematic, i, x0, v0, x1, v1, r, p.mass[i], slop, dt,
-                                                last_resort, max_push_speed, wet_law)
-    if ti.static(scheme == SIMPLE):
-        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt,
-                                           0, 1, True, False, wet_law)
-    elif ti.static(scheme == MICRO):
-        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt, 0,
-                                           max_iterations, True, True, wet_law)
-    elif ti.static(scheme == ELASTIC_CONTACT):
-        x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt,
-                                           elastic_iterations, max_iterations, False, True, wet_law)
-    else:
-        x1, v1 = resolve_exact_time(p, c, groups, kinematic, i, inv_mass, x0 + push, v1, r, slop, dt,
-                                    max_iterations, rest_speed, wet_law)
-    return x1, v1, clearance
 
 
 @ti.kernel
@@ -436,9 +199,9 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
         else:
             if ti.static(contact_only):
                 r = p.radius[i]
-                x1, v1, clearance = resolve_passes(p, c, groups, kinematic, i, 1.0 / p.mass[i], x0,
-                                                   vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
-                                                   slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
+                x1, v1, clearance, apart, level, others = resolve_passes(
+                    p, c, groups, kinematic, i, 1.0 / p.mass[i], x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
+                    slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
                 x_kept = keep_out(c, groups, kinematic, x0, x1, r)
                 if any(x_kept != x1):
                     clearance = -1.0
@@ -452,9 +215,9 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                         v1 -= (into / out.norm_sqr()) * out
                 x1 = x_kept
             else:
-                x1, v1, clearance = resolve_particle(p, c, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
-                                                     max_iterations, elastic_iterations, last_resort, max_push_speed,
-                                                     slop_fraction, rest_speed)
+                x1, v1, clearance, apart, level, others = resolve_particle(
+                    p, c, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations,
+                    elastic_iterations, last_resort, max_push_speed, slop_fraction, rest_speed, clearance >= 0.0)
         if ti.static(store_state):
             store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
             clearances[i] = clearance

@@ -1,4 +1,5 @@
-"""Time integration without collisions, and the end-of-substep bookkeeping (docs/physics.md 3).
+"""Time integration without collisions, free flight in closed form (docs/physics.md 3.7), and the
+end-of-substep bookkeeping (docs/physics.md 3).
 Particle arguments `p` are the store's pack (types.ParticleArgs)."""
 
 import taichi as ti
@@ -95,3 +96,61 @@ def store(p: ti.template(), i, x0: vec3, v0: vec3, x1: vec3, v1: vec3,
         p.v[i] = v1
     if status != ACTIVE:
         flag(p, i, status)
+
+
+@ti.func
+def try_free_flight(x0: vec3, v0: vec3, clearance, gravity: vec3, dt, k, use_domain: ti.template(), domain_lo: vec3,
+                    domain_hi: vec3):
+    """k substeps at once when the clearance covers their whole path (and, with a domain,
+    every substep's end stays inside it). Returns (done, x_k, v_k, clearance left)."""
+    done = False
+    xk, vk = x0, v0
+    left = clearance
+    if clearance > 0.0:
+        path = flight_path_bound(v0, gravity, dt, k) * (1.0 + 1e-5)
+        if clearance > path:
+            xk, vk = free_flight(x0, v0, gravity, dt, k)
+            inside = True
+            if ti.static(use_domain):
+                inside = flight_stays_inside(x0, v0, gravity, dt, k, domain_lo, domain_hi)
+            if inside and state_status(xk, vk, False, domain_lo, domain_hi) == ACTIVE:
+                done = True
+                left = clearance - path
+    return done, xk, vk, left
+
+
+@ti.func
+def try_flight_in_front(x0: vec3, v0: vec3, apart: vec3, level, others, gravity: vec3, dt, k_max,
+                        use_domain: ti.template(), domain_lo: vec3, domain_hi: vec3):
+    """The most substeps, up to k_max, that free flight keeps in front of the nearest
+    collider's separating plane (apart . x > level, detect's) and within the clearance from
+    the others, done at once in closed form (docs/physics.md 3.7). Along the flight
+    apart . x_j - level = C + B j + A j^2 (x_j of free_flight); with gravity not pointing away
+    from the plane (A <= 0) that is concave in j, so it stays positive up to its first root and
+    the check at the last substep taken covers every one before it. A particle rising off a
+    floor thus flies to the substep before it comes back down. Returns (k, x_k, v_k, apart . x_k
+    - level, the others' clearance left); k = 0: no flight (A > 0, or not one substep clear)."""
+    k = 0
+    xk, vk = x0, v0
+    ahead = apart.dot(x0) - level
+    left = others
+    a = 0.5 * dt * dt * apart.dot(gravity)
+    b = dt * apart.dot(v0) + a
+    if a <= 0.0 and ahead > 0.0:
+        last = ti.cast(k_max, float)  # the first root, in substeps (beyond k_max: k_max)
+        if a < 0.0:
+            last = (-b - ti.sqrt(b * b - 4.0 * a * ahead)) / (2.0 * a)
+        elif b < 0.0:
+            last = -ahead / b
+        j = ti.min(ti.cast(ti.floor(ti.min(last, ti.cast(k_max, float))), ti.i32), k_max)
+        if j >= 1:
+            path = flight_path_bound(v0, gravity, dt, j) * (1.0 + 1e-5)
+            x_j, v_j = free_flight(x0, v0, gravity, dt, j)
+            in_front = apart.dot(x_j) - level
+            inside = True
+            if ti.static(use_domain):
+                inside = flight_stays_inside(x0, v0, gravity, dt, j, domain_lo, domain_hi)
+            if (in_front > 0.0 and others > path and inside
+                    and state_status(x_j, v_j, False, domain_lo, domain_hi) == ACTIVE):
+                k, xk, vk, ahead, left = j, x_j, v_j, in_front, others - path
+    return k, xk, vk, ahead, left
