@@ -23,7 +23,12 @@ def test_hash_grid_matches_brute_force(offset, forward):
     x[:5] += [1e3, -2e3, 5e2]  # far outside the others' bounds
     radius = rng.uniform(0.01, 0.03, n)
     margin = 0.005
-    grid = grid_of(x, radius, margin, forward)
+    assert_lists_match_brute_force(grid_of(x, radius, margin, forward), x, radius, margin, forward)
+
+
+def assert_lists_match_brute_force(grid, x, radius, margin, forward):
+    """The grid's lists (and its touching counts, from full lists) against all pairs."""
+    n = len(x)
     lists = grid.neighbour_lists(n)  # from forward lists: each pair put in both particles' lists
     d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
     reach = radius[:, None] + radius[None, :] + margin
@@ -43,6 +48,39 @@ def test_hash_grid_matches_brute_force(offset, forward):
             assert np.all(slot_of[table[i, : counts[i]]] > slot_of[i]), i
         assert counts.sum() == sum(len(row) for row in lists) // 2
     assert grid.dropped() == 0
+
+
+def test_table_bits_follow_the_particles_extent():
+    # Each axis gets the bits its extent in cells plus the query's cell on either side needs,
+    # at least MIN_BITS; past the table's total, bits come off the axis holding the most (z,
+    # then y, before x); unknown extents share the bits evenly.
+    from tai_coll.neighbors.hash_grid import MIN_BITS, table_bits
+
+    assert table_bits([127, 6, 127], 18) == (8, 3, 7)  # the benchmark's 100k bed: 129 columns
+    assert table_bits([30, 2, 30], 18) == (5, 3, 5)  # everything fits: bits left unused
+    assert table_bits([1, 1, 1], 11) == MIN_BITS
+    assert table_bits([5000, 3, 3], 18) == (12, 3, 3)
+    assert table_bits([1, 70000, 1], 18) == (4, 11, 3)
+    assert table_bits([1000, 1000, 10], 18) == (7, 7, 4)
+    assert table_bits(None, 18) == (6, 6, 6)
+
+
+@pytest.mark.parametrize("forward", [False, True])
+def test_a_flat_bed_gets_a_flat_table_and_the_lists_of_brute_force(forward):
+    # A layer 25 cells wide and 3 deep, away from the origin: the table follows its shape (2^5
+    # x 2^3 x 2^5 buckets, where an even split of the 13 bits would put up to four of its
+    # cells in a bucket) and the lists are those of brute force.
+    rng = np.random.default_rng(9)
+    n = 3000
+    x = np.column_stack([rng.uniform(0, 0.5, n), rng.uniform(0, 0.06, n), rng.uniform(0, 0.5, n)]) - [0.3, 3.0, 7.1]
+    radius = np.full(n, 0.009)
+    margin = 0.002
+    grid = grid_of(x, radius, margin, forward)
+    cells = np.floor(x * grid.inv_cell).astype(np.int64)
+    extent = cells.max(axis=0) - cells.min(axis=0) + 1
+    assert tuple(int(b) for b in grid.bits) == (5, 3, 5)
+    assert np.all(2 ** np.array(list(grid.bits)) >= extent + 2)
+    assert_lists_match_brute_force(grid, x, radius, margin, forward)
 
 
 def test_grid_entries_order_every_particle():

@@ -253,6 +253,34 @@ def test_gauss_seidel_units_of_a_colour_share_no_particle(spread, unit_bits):
     assert len(pairs) == len(records)
 
 
+@pytest.mark.parametrize("unit_bits", [gauss_seidel.CPU_UNIT_BITS, gauss_seidel.GPU_UNIT_BITS], ids=["cpu", "gpu"])
+@pytest.mark.parametrize("bits", [(4, 3, 3), (8, 3, 7), (6, 6, 6), (5, 8, 4)])
+def test_gauss_seidel_units_of_each_colour_cover_the_table_once(bits, unit_bits):
+    # The table's bits per axis follow the particles (hash_grid.table_bits): whatever its shape,
+    # every unit of the table comes up once (unit_origin), in the colour of its parities.
+    import taichi as ti
+
+    per = [1 << (b - u - 1) for b, u in zip(bits, unit_bits)]
+    units = per[0] * per[1] * per[2]
+    origins = ti.ndarray(ti.i32, shape=8 * units)
+
+    @ti.kernel
+    def every_origin(bits: ti.types.vector(3, ti.i32), out: ti.types.ndarray()):
+        for c in ti.static(range(8)):
+            for u in range(units):
+                out[c * units + u] = gauss_seidel.unit_origin(c, u, bits, unit_bits)
+
+    every_origin(ti.Vector(list(bits)), origins)
+    origin = origins.to_numpy()
+    coords = np.stack([origin & ((1 << bits[0]) - 1), (origin >> bits[0]) & ((1 << bits[1]) - 1),
+                       origin >> (bits[0] + bits[1])], 1)
+    unit = coords >> np.array(unit_bits)
+    assert np.all(coords == unit << np.array(unit_bits))  # unit corners
+    colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
+    assert np.array_equal(colour, np.repeat(np.arange(8), units))
+    assert len(np.unique(origin)) == 8 * units == 1 << (sum(bits) - sum(unit_bits))
+
+
 @pytest.mark.parametrize("method, relaxation", [("gauss-seidel", None), ("gauss-seidel", 0.8),
                                                 ("gauss-seidel, GPU units", None), ("jacobi", None)])
 def test_one_projection_pass_separates_every_isolated_pair(method, relaxation, monkeypatch):

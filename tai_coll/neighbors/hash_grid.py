@@ -10,6 +10,10 @@ thread timing) places every particle in one flat array.
 A query visits the 27 cells around a particle (nine rows of three, each row one range of
 entries where it does not wrap around the table, see `query_spans`) and keeps the particles
 within reach (two cells can share a bucket, but never two cells near each other).
+How the table's bits are shared among the axes follows the particles' extent in cells at each
+sort (`table_bits`): a bed 127 cells wide and 6 deep gets 2^8 x 2^3 x 2^7 buckets, where an
+even 2^6 along each axis would put four of its cells in every bucket and make each query read
+four times the particles it needs.
 Kernels that query the grid take its sort as `HashGrid.args` (types.GridArgs) and its lists
 as `HashGrid.lists` (types.ListArgs).
 """
@@ -74,6 +78,54 @@ def gather_step(x: ti.template(), radius: ti.template(), entries: ti.template(),
     for k in range(starts[n_buckets]):
         i = entries[k]
         sorted_xr[k] = vec4(x[i], radius[i])
+
+
+BOUND_BLOCKS = 256  # blocks of the cell-bounds reduction (each a serial scan of its share)
+
+
+@ti.kernel
+def _cell_bounds(x: ARRAY, flags: ARRAY, n: ti.i32, inv_cell: float,
+                 # output: per block b, at 6 b, the lowest and highest cell along x, y, z
+                 bounds: ARRAY):
+    """The range of cells the active particles occupy, by blocks of particles (the host takes
+    the extremes over the blocks): plain per-block loops, no contended atomics."""
+    per = (n + BOUND_BLOCKS - 1) // BOUND_BLOCKS
+    for b in range(BOUND_BLOCKS):
+        lo = ivec3(2147483647)
+        hi = ivec3(-2147483647)
+        for i in range(b * per, ti.min(n, (b + 1) * per)):
+            if flags[i] == ACTIVE:
+                c = cell_of(x[i], inv_cell)
+                lo = ti.min(lo, c)
+                hi = ti.max(hi, c)
+        for a in ti.static(range(3)):
+            bounds[6 * b + a] = lo[a]
+            bounds[6 * b + 3 + a] = hi[a]
+
+
+#: The fewest bits a table gives an axis: 16 x 8 x 8 buckets, which the colouring of the
+#: Gauss-Seidel passes needs (an even number of its units along each axis) and which keeps the
+#: 27 cells of a query in 27 distinct buckets.
+MIN_BITS = (4, 3, 3)
+
+
+def table_bits(extent, total_bits: int) -> tuple:
+    """Bits of the bucket table per axis for particles spanning extent[a] cells along axis a
+    (None: unknown), out of total_bits: each axis as many as its extent plus the query's cell
+    on either side needs, at least MIN_BITS; where they add up to more than total_bits, a bit
+    at a time comes off the axis holding the most, so the axes wrap alike. Bits that no
+    axis needs are left unused (fewer, fuller buckets: the Gauss-Seidel passes visit every
+    bucket of the table)."""
+    if extent is None:
+        return ((total_bits + 2) // 3, total_bits // 3, (total_bits + 1) // 3)
+    bits = [max(low, int(np.ceil(np.log2(int(e) + 2)))) for low, e in zip(MIN_BITS, extent)]
+    while sum(bits) > total_bits:
+        # of the axes holding the most, z before y before x: rows along x stay whole (a query
+        # reads a row of three cells as one range unless it wraps; measured on the 100k bed,
+        # 2^8 x 2^3 x 2^7 buckets ran its passes 1.2 times as fast as 2^7 x 2^3 x 2^8)
+        axis = max((a for a in range(3) if bits[a] > MIN_BITS[a]), key=lambda a: (bits[a], a))
+        bits[axis] -= 1
+    return tuple(bits)
 
 
 @ti.kernel
@@ -212,6 +264,7 @@ class HashGrid:
         self.inv_cell = 1.0  # 1 / cell size of the last sort
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
+        self.bounds = ti.ndarray(ti.i32, shape=6 * BOUND_BLOCKS)
         self._args = self._lists = None  # the argument packs (see args, lists)
 
     def _ensure(self, n: int):
@@ -220,9 +273,9 @@ class HashGrid:
         capacity = max(n, 2 * self.capacity, 1024)
         self.capacity = capacity
         # about half the buckets empty: short probes; a power of two: the bucket is a mask
-        total_bits = int(np.ceil(np.log2(2 * capacity)))
-        self.n_buckets = 1 << total_bits
-        self.bits = ivec3((total_bits + 2) // 3, total_bits // 3, (total_bits + 1) // 3)
+        self.total_bits = int(np.ceil(np.log2(2 * capacity)))
+        self.n_buckets = 1 << self.total_bits
+        self.bits = ivec3(*table_bits(None, self.total_bits))
         self.bucket = ti.ndarray(ti.i32, shape=capacity)
         self.rank = ti.ndarray(ti.i32, shape=capacity)
         self.entries = ti.ndarray(ti.i32, shape=capacity)
@@ -289,9 +342,24 @@ class HashGrid:
         particle store can be put in cell order by it (`ParticleStore.permute`)."""
         self._ensure(n)
         self.inv_cell = 1.0 / cell_size
+        bits = ivec3(*table_bits(self._extent(x, flags, n), self.total_bits))
+        if any(bits != self.bits):
+            self.bits = bits
+            self._args = None
         _sort(x=x, radius=radius, flags=flags, n=n, inv_cell=self.inv_cell, n_buckets=self.n_buckets, bits=self.bits,
               bucket=self.bucket, rank=self.rank, counts=self.counts, block_sums=self.block_sums, starts=self.starts,
               entries=self.entries, sorted_xr=self.sorted_xr)
+
+    def _extent(self, x, flags, n: int):
+        """How many cells the active particles span along each axis (None: none active)."""
+        if n == 0:
+            return None
+        _cell_bounds(x=x, flags=flags, n=n, inv_cell=self.inv_cell, bounds=self.bounds)
+        bounds = self.bounds.to_numpy().reshape(BOUND_BLOCKS, 6)
+        lo, hi = bounds[:, :3].min(axis=0), bounds[:, 3:].max(axis=0)
+        if np.any(hi < lo):
+            return None
+        return (hi.astype(np.int64) - lo + 1).tolist()
 
     def neighbour_lists(self, n: int):
         """Host copies: a list of index arrays, one per particle (for tests and debugging); from
