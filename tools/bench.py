@@ -267,8 +267,10 @@ def taichi_case(setup, *, label="taichi impulse", layout="falling", precision=No
     rss0 = rss_bytes()
     scene = build_scene(tc, positions, colliders, solver_factory(tc) if solver_factory else None)
     rss1 = rss_bytes()
-    store = scene._particles  # x, v (3 floats), mass, radius, clearance (1 float), flags (i32), per slot
-    state_bytes = store.capacity * (9 * np.dtype(info.float_dtype).itemsize + 4)
+    # per slot: x, v (3 floats each), mass, radius, clearance (1 float each), the separating
+    # plane (5 floats: solvers/impulse.py), flags (i32)
+    store = scene._particles
+    state_bytes = store.capacity * (14 * np.dtype(info.float_dtype).itemsize + 4)
 
     def step():
         scene.step(1)

@@ -4,9 +4,9 @@ frame that exporters write (`frame_data`).
 A state is everything the next step reads, so that a scene built by the same script, loaded
 with it, continues bit for bit as the run that saved it would have (on the CPU, where the
 kernels' order of work is fixed): the particle store in its storage order (every per-slot
-array: positions, velocities, spins, flags, allowances, rest times, clearances, ids), the
-pair solver's kept arrays (the hash grid, Verlet lists, tangential springs, support levels,
-its counters and keys), the rigid bodies and their contact caches, the colliders' poses, the
+array: positions, velocities, spins, flags, allowances, rest times, clearances, separating
+planes, ids), the pair solver's kept arrays (the hash grid, Verlet lists, tangential springs,
+support levels, its counters and keys), the rigid bodies and their contact caches, the colliders' poses, the
 emitters' random generators and counters, the sinks' count, time, dt, the frame count and the
 scene's warnings given. The colliders, bodies' shapes and masses, emitters, sinks, solver and
 settings themselves are the script's: they are not saved but compared (`fingerprint`), and a
@@ -34,7 +34,7 @@ from .. import export, runtime
 from ..types import new_ndarray
 
 FORMAT = "tai_coll.state"
-VERSION = 1
+VERSION = 2  # 2: the particle store keeps separating planes (solvers/impulse.py)
 META_KEY = "__meta__"
 
 #: Attributes of each container left out of a state and reset to None on loading: argument

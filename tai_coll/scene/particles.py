@@ -20,19 +20,23 @@ from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs, new_ndarray
 MAX_IDS = 2**31 - 1
 
 QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance", "rest", "anchor")
+#: A particle's kept separating plane (solvers/impulse.py): its direction (3), level and the
+#: other colliders' clearance beyond the particle's kept clearance.
+SEPARATION_SIZE = 5
 #: Every array the store keeps per particle, in the order of _stored_arrays and _permute's arguments.
-STORED = QUANTITIES + ("clearance", "ids")
+STORED = QUANTITIES + ("clearance", "separation", "ids")
 
 
 @ti.kernel
 def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.types.ndarray(),
              mass: ti.types.ndarray(), radius: ti.types.ndarray(), flags: ti.types.ndarray(),
              allowance: ti.types.ndarray(), rest: ti.types.ndarray(), anchor: ti.types.ndarray(),
-             clearance: ti.types.ndarray(), ids: ti.types.ndarray(),
+             clearance: ti.types.ndarray(), separation: ti.types.ndarray(), ids: ti.types.ndarray(),
              # outputs: slot k gets what slot order[k] held
              x2: ti.types.ndarray(), v2: ti.types.ndarray(), mass2: ti.types.ndarray(), radius2: ti.types.ndarray(),
              flags2: ti.types.ndarray(), allowance2: ti.types.ndarray(), rest2: ti.types.ndarray(),
-             anchor2: ti.types.ndarray(), clearance2: ti.types.ndarray(), ids2: ti.types.ndarray()):
+             anchor2: ti.types.ndarray(), clearance2: ti.types.ndarray(), separation2: ti.types.ndarray(),
+             ids2: ti.types.ndarray()):
     for k in range(n):
         i = order[k]
         x2[k] = x[i]
@@ -44,6 +48,7 @@ def _permute(order: ti.types.ndarray(), n: ti.i32, x: ti.types.ndarray(), v: ti.
         rest2[k] = rest[i]
         anchor2[k] = anchor[i]
         clearance2[k] = clearance[i]
+        separation2[k] = separation[i]
         ids2[k] = ids[i]
 
 
@@ -109,7 +114,7 @@ def _stored_arrays(capacity: int) -> tuple:
             ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity), ti.ndarray(ti.i32, shape=capacity),
             ti.ndarray(float, shape=capacity), ti.ndarray(float, shape=capacity),
             ti.Vector.ndarray(3, float, shape=capacity), ti.ndarray(float, shape=capacity),
-            ti.ndarray(ti.i32, shape=capacity))
+            ti.Vector.ndarray(SEPARATION_SIZE, float, shape=capacity), ti.ndarray(ti.i32, shape=capacity))
 
 
 class ParticleStore:
@@ -140,6 +145,10 @@ class ParticleStore:
         # store and collider table at its last launch) holds.
         self.version = 0
         self.clearance_key = None
+        # the clearance_key of the impulse solver's step kernel's last launch, which kept each
+        # particle's separating plane (`separation`): valid while the clearances it wrote are
+        # the ones kept (no other kernel wrote them since)
+        self.separation_key = None
         # the substep map (gravity, dt, the law) of the impulse solver's last launch, whose
         # fixed points it marked AT_REST in the clearances (solvers/impulse.py)
         self.rest_map = None

@@ -32,6 +32,7 @@ import numpy as np
 import taichi as ti
 
 from .. import validate
+from ..geometry import kinds
 from ..response.laws import WET_LAWS
 from ..response.repulsion import RepulsionField, pack
 from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, vec3
@@ -47,7 +48,8 @@ AT_REST = -2.0
 
 @ti.kernel
 def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), kinematic: ti.template(),
-                    clearances: ARRAY, reuse_clearance: ti.i32, reuse_rest: ti.i32, n_substeps: ti.i32, gravity: vec3,
+                    clearances: ARRAY, separations: ARRAY, reuse_clearance: ti.i32, reuse_separation: ti.i32,
+                    reuse_rest: ti.i32, n_substeps: ti.i32, gravity: vec3,
                     dt: float,
                     scheme: ti.template(), wet_law: ti.template(), max_iterations: ti.i32, elastic_iterations: ti.i32,
                     last_resort: last_resort6, max_push_speed: float, slop_fraction: float, rest_speed: float,
@@ -63,6 +65,12 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
     plain integration, done in closed form at once (free_flight). The clearance is reused
     from the last launch when the host says nothing moved in between: neither the colliders
     nor the particles outside this kernel (reuse_clearance).
+    With still colliders a query also gives the nearest collider's separating plane (apart,
+    level) and the other colliders' clearance (others), which let the particle fly in closed
+    form while it stays in front of the plane (try_flight_in_front, docs/physics.md 3.7). They
+    are kept in `separations` (one row per particle: apart, level, and others less the
+    particle's clearance, which free flight reduces by the same path) for the next launch
+    while the clearances this kernel wrote are the ones kept (reuse_separation).
     A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
     still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the same
     in every later substep of the launch, so the particle is done: an exact shortcut, not an
@@ -94,6 +102,15 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 apart = vec3(0.0, 0.0, 0.0)
                 level = 0.0
                 others = -1.0
+                if ti.static(not kinematic):
+                    if reuse_separation and clearance >= 0.0:
+                        # the plane the last launch left, and the others' clearance, kept as
+                        # its excess over the particle's clearance: free flight in between took
+                        # the same path off both
+                        kept = separations[i]
+                        apart = vec3(kept[0], kept[1], kept[2])
+                        level = kept[3]
+                        others = clearance + kept[4]
                 s = 0
                 while s < n_substeps:
                     planar = False
@@ -129,9 +146,14 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                         ahead = apart.dot(x1) - level
                         clear = ahead > 0.0 and others > 0.0
                         clearance = ti.min(ahead, others)
-                    elif clearance > step:
-                        clear = True
-                        clearance -= step
+                    elif ti.static(kinematic or groups != kinds.GROUP_ANALYTIC):
+                        if clearance > step:
+                            clear = True
+                            clearance -= step
+                    # (Still analytic tables: a substep without a separating plane queries. A
+                    # query leaves a clear candidate as it is and finds the nearest collider's
+                    # plane, which the launch then flies in front of in closed form; stepping
+                    # through the clearance first costs a few substeps and queries all the same.)
                     if not clear:
                         x1, v1, clearance, apart, level, others = resolve_particle(
                             particles, colliders, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
@@ -150,6 +172,10 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 particles.x[i] = x0
                 particles.v[i] = v0
                 clearances[i] = clearance
+                if ti.static(not kinematic):
+                    if clearance < 0.0:
+                        apart = vec3(0.0, 0.0, 0.0)  # (read only with a clearance >= 0)
+                    separations[i] = ti.Vector([apart[0], apart[1], apart[2], level, others - clearance])
                 if at_rest:
                     clearances[i] = AT_REST
                 if status != ACTIVE:
@@ -327,12 +353,16 @@ class ImpulseSolver(Solver):
                     self.elastic_iterations, self.push_fraction, self.max_push_speed, self.slop,
                     float(law["rest_speed"]), repr(self.last_resort), repr(world.domain))
         reuse_rest = reuse and store.rest_map == same_map
+        # the separating planes this kernel kept hold while the clearances it wrote are kept
+        reuse_separation = reuse and store.separation_key == store.clearance_key
         store.mark_moved()
         impulse_substep(particles=store.args, colliders=table.args, groups=table.groups,
-                        kinematic=table.has_kinematic, clearances=store.clearance,
-                        reuse_clearance=int(reuse), reuse_rest=int(reuse_rest), n_substeps=substeps,
+                        kinematic=table.has_kinematic, clearances=store.clearance, separations=store.separation,
+                        reuse_clearance=int(reuse), reuse_separation=int(reuse_separation),
+                        reuse_rest=int(reuse_rest), n_substeps=substeps,
                         gravity=vec3(*world.gravity), dt=dt, **law)
         store.clearances_written(table)
+        store.separation_key = store.clearance_key
         store.rest_map = same_map
 
     def pair_substep(self, world, pairs, dt: float):
