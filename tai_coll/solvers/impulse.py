@@ -93,6 +93,10 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 particles.x[i] = xk
                 particles.v[i] = vk
                 clearances[i] = left
+                if ti.static(not kinematic):
+                    if not reuse_separation:
+                        # (the plane kept is not this clearance's: the next launch must not read it)
+                        separations[i] = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
             else:
                 status = ACTIVE
                 at_rest = False
