@@ -264,7 +264,7 @@ class HashGrid:
         self.inv_cell = 1.0  # 1 / cell size of the last sort
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
-        self.bounds = ti.ndarray(ti.i32, shape=6 * BOUND_BLOCKS)
+        self._bounds = None  # a work array of _cell_bounds (see _extent)
         self._args = self._lists = None  # the argument packs (see args, lists)
 
     def _ensure(self, n: int):
@@ -354,8 +354,10 @@ class HashGrid:
         """How many cells the active particles span along each axis (None: none active)."""
         if n == 0:
             return None
-        _cell_bounds(x=x, flags=flags, n=n, inv_cell=self.inv_cell, bounds=self.bounds)
-        bounds = self.bounds.to_numpy().reshape(BOUND_BLOCKS, 6)
+        if self._bounds is None:
+            self._bounds = ti.ndarray(ti.i32, shape=6 * BOUND_BLOCKS)
+        _cell_bounds(x=x, flags=flags, n=n, inv_cell=self.inv_cell, bounds=self._bounds)
+        bounds = self._bounds.to_numpy().reshape(BOUND_BLOCKS, 6)
         lo, hi = bounds[:, :3].min(axis=0), bounds[:, 3:].max(axis=0)
         if np.any(hi < lo):
             return None

@@ -42,7 +42,7 @@ META_KEY = "__meta__"
 RESET = {
     "store": {"_args", "_spin_args", "_slots_host", "_spare", "_w_spare", "_largest"},
     "pairs": {"_law", "_load_args"},
-    "grid": {"_args", "_lists"},
+    "grid": {"_args", "_lists", "_bounds"},
     "lists": {"_args"},
     "springs": {"_packs"},
 }
