@@ -20,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
+from . import frontend_cache
+
 ARCHS = ("auto", "cpu", "gpu", "cuda", "vulkan", "metal")
 PRECISIONS = ("f32", "f64")
 # A fixed ceiling, the same on every machine: far above any core count in use, yet Taichi
@@ -86,6 +88,7 @@ def _arch_name(arch) -> str:
 
 
 def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
+    frontend_cache.install()  # Taichi's source reads and position messages, once each
     fp = ti.f64 if precision == "f64" else ti.f32
     # Taichi's offline cache of compiled kernels holds 100 MiB by default, fewer than a scene
     # with every kind of collider, pairs and bodies compiles: past it, it evicts and recompiles

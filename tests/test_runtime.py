@@ -47,3 +47,84 @@ def test_stale_generation_is_refused():
 
     with pytest.raises(RuntimeError, match="restarted Taichi"):
         runtime.check_generation(runtime.info().generation - 1, "this Scene")
+
+
+FRONTEND_PROBE = '''
+import sys
+import taichi as ti
+import tai_coll as tc
+
+tc.init(arch="cpu", precision="f64", threads=1, seed=0)
+defined_value = 1.0
+
+
+@ti.func
+def near(a):
+    return a * 2.0 + defined_value
+
+
+@ti.func
+def far(a):
+    return a * 2.0 + unknown_value
+
+
+@ti.kernel
+def sums(x: ti.types.ndarray()) -> float:
+    total = 0.0
+    for i in range(x.shape[0]):
+        total += near(x[i]) + near(x[i] + 1.0)
+    return total
+
+
+@ti.kernel
+def broken(x: ti.types.ndarray()) -> float:
+    total = 0.0
+    for i in range(x.shape[0]):
+        total += near(x[i]) + far(x[i])
+    return total
+
+
+import numpy as np
+
+print("sum", sums(np.arange(3.0)))
+try:
+    broken(np.arange(3.0))
+except Exception as error:
+    print(type(error).__name__)
+    print(error)
+from tai_coll import frontend_cache
+print("memo", frontend_cache._installed)
+'''
+
+
+def test_taichis_frontend_memos_leave_its_error_messages_as_they_were(tmp_path):
+    # frontend_cache: Taichi's source reads and position messages are made once per source
+    # position. A kernel that compiles gives the same result, and a compile error in a
+    # @ti.func the same message (file, line, the line with its caret) as without the memos,
+    # here after a function of the same shape was compiled at two call sites.
+    import os
+    import subprocess
+    import sys
+
+    from taichi.lang import kernel_impl
+
+    from tai_coll import frontend_cache
+
+    assert frontend_cache.install() and kernel_impl.getsourcelines.__module__ == "tai_coll.frontend_cache"
+    probe = tmp_path / "probe.py"
+    probe.write_text(FRONTEND_PROBE)
+    outputs = {}
+    for memo in ("1", "0"):
+        env = dict(os.environ, TAI_COLL_FRONTEND_CACHE=memo, TI_OFFLINE_CACHE="0")
+        run = subprocess.run([sys.executable, str(probe)], capture_output=True, text=True, env=env, timeout=300)
+        assert run.returncode == 0, run.stderr
+        outputs[memo] = [line for line in run.stdout.splitlines() if not line.startswith("[Taichi]")]
+    with_memo, without = outputs["1"], outputs["0"]
+    assert with_memo[-1] == "memo True" and without[-1] == "memo False"
+    assert with_memo[:-1] == without[:-1]
+    text = "\n".join(with_memo)
+    assert "sum 24.0" in text and "TaichiNameError" in text
+    assert f'File "{probe}"' in text and "in far:" in text
+    # (the two functions' last lines differ only in the name, of the same length: a message
+    # kept for `near` would quote its line)
+    assert "return a * 2.0 + unknown_value" in text and "^^^^^^^^^^^^^" in text

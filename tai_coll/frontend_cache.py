@@ -1,0 +1,88 @@
+"""Memoised source lookups for Taichi's Python frontend (docs/design-notes.md, "Compile time").
+
+Taichi turns a kernel into IR from its Python source each time it specialises one, and every
+@ti.func once per call site. On each such pass it reads the function's source again
+(`inspect.getsourcelines`, which tokenises the file from the top) and, for every node of the
+function's syntax tree, formats a position message: the file, the line, and the source line
+with a caret under the node, run through `textwrap` to 80 columns. The message becomes the
+node's debug information, shown only if compiling or an assertion fails. Both are functions of
+the function's source and the node's place in it alone, yet the impulse pair solver's first
+substep made 94,573 such messages and 2,047 source reads: together about 60 % of the time
+Taichi spent turning its kernels into IR (the part of a first launch that Taichi's offline
+cache of compiled kernels does not skip).
+
+`install()` memoises the two in Taichi's own modules (it replaces the module attributes its
+frontend calls; nothing else changes): the same strings, made once per source position. It
+does so only for the Taichi versions it was written against (1.7), whose frontend it has
+checked; anywhere else it leaves Taichi alone. TAI_COLL_FRONTEND_CACHE=0 leaves it off.
+"""
+
+import os
+
+import taichi as ti
+
+#: The Taichi versions whose frontend these memos were written against (major, minor).
+CHECKED_VERSIONS = {(1, 7)}
+
+#: Position messages kept before the memo starts again (each about 200-400 characters).
+MAX_MESSAGES = 200_000
+
+_installed = False
+
+
+def _version() -> tuple:
+    """(major, minor) of the Taichi imported (ti.__version__ is a tuple of ints in 1.7)."""
+    version = ti.__version__
+    if isinstance(version, str):
+        version = tuple(int(part) for part in version.split(".")[:2] if part.isdigit())
+    return tuple(version[:2])
+
+
+def install() -> bool:
+    """Memoise Taichi's source reads and position messages; returns whether they are on
+    (False: another Taichi version, or TAI_COLL_FRONTEND_CACHE=0). Safe to call again."""
+    global _installed
+    if _installed:
+        return True
+    if os.environ.get("TAI_COLL_FRONTEND_CACHE", "1") == "0" or _version() not in CHECKED_VERSIONS:
+        return False
+    try:
+        from taichi.lang import kernel_impl
+        from taichi.lang.ast import ast_transformer_utils
+        context = ast_transformer_utils.ASTTransformerContext
+        originals = (kernel_impl.getsourcelines, kernel_impl.getsourcefile, context.get_pos_info)
+    except (ImportError, AttributeError):
+        return False
+    read_lines, read_file, position = originals
+    lines_of, file_of, messages = {}, {}, {}
+
+    def getsourcelines(func):
+        # the lines and the first line's number of a function: its source does not change
+        # while the process runs (Taichi reads it for every specialisation and call site)
+        if func not in lines_of:
+            lines_of[func] = read_lines(func)
+        lines, start = lines_of[func]
+        return list(lines), start
+
+    def getsourcefile(func):
+        if func not in file_of:
+            file_of[func] = read_file(func)
+        return file_of[func]
+
+    def get_pos_info(self, node):
+        # (file, the function's first line, its indent, its name) fix the source lines the
+        # message quotes; the node's type and span fix the rest of it
+        key = (self.file, self.lineno_offset, self.indent, self.func.func.__name__, type(node),
+               node.lineno, getattr(node, "end_lineno", None), node.col_offset, getattr(node, "end_col_offset", None))
+        message = messages.get(key)
+        if message is None:
+            if len(messages) >= MAX_MESSAGES:
+                messages.clear()
+            message = messages[key] = position(self, node)
+        return message
+
+    kernel_impl.getsourcelines = getsourcelines
+    kernel_impl.getsourcefile = getsourcefile
+    context.get_pos_info = get_pos_info
+    _installed = True
+    return True
