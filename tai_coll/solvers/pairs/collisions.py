@@ -204,7 +204,8 @@ class ParticleCollisions:
         sleep = self._may_sleep(world)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
-        contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max))
+        #    (and v(t) into v_start, x(t) into delta while particles may sleep: see 3.)
+        contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max), sleep)
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
         # A body lying on particles held by what they rest on is stopped by them in this
         # substep's collider passes (shock propagation, docs/physics.md 7.2), where it meets
@@ -215,10 +216,8 @@ class ParticleCollisions:
             g = float(np.linalg.norm(world.gravity))
             up = -np.asarray(world.gravity) / g
             table.set_support(self._support_levels(world, particles.x), up * HELD_SPEED * g * dt)
-        # 3. elastic pass on v(t)
-        self.v_start.copy_from(particles.v)
-        if sleep:
-            self.delta.copy_from(particles.x)  # x(t), for update_rest (Gauss-Seidel leaves delta free)
+        # 3. elastic pass on v(t) (v_start, which the prediction wrote; delta holds x(t) for
+        #    update_rest when particles may sleep: Gauss-Seidel leaves delta free)
         # the passes' wake thresholds (None: nobody sleeps): the elastic pass's, and the later
         # passes', whose velocities include this substep's gravity, which a sleeping particle's
         # lack (a particle resting on one closes in on it by |g| dt)
@@ -301,11 +300,12 @@ class ParticleCollisions:
         self._sleep = sleep
         return sleep
 
-    def _predict_and_list(self, world, dt: float, margin: tuple, skin: float):
+    def _predict_and_list(self, world, dt: float, margin: tuple, skin: float, sleep: bool):
         """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + margin
         (margin: (m, radii), settings.margin_terms) + skin of each other at them, kept from
-        earlier substeps while they still hold. Returns the array holding each particle's
-        contact count at the candidates (for the first pass)."""
+        earlier substeps while they still hold; also v(t) into v_start and, if sleep, x(t) into
+        delta (in the store's order after any reordering here). Returns the array holding each
+        particle's contact count at the candidates (for the first pass)."""
         particles = world.particles
         n = particles.count
         length, radii = margin
@@ -318,8 +318,8 @@ class ParticleCollisions:
             self.lists.ensure(self.capacity)
         predict = predict_kernel(keep)
         launch = dict(particles=particles.args, gravity=ti.math.vec3(*world.gravity), dt=dt,
-                      seen=self.lists.args if keep else unused(), reach2=(0.5 * skin) ** 2, x1=self.x1, v1=self.v1,
-                      stale=self.changed)
+                      seen=self.lists.args if keep else unused(), reach2=(0.5 * skin) ** 2, keep_x=int(sleep),
+                      x1=self.x1, v1=self.v1, stale=self.changed, v_start=self.v_start, x_start=self.delta)
         if self.lists.key == key and keep:
             predict(**launch)
             if not self._changed():
