@@ -70,10 +70,13 @@ def install() -> bool:
         return file_of[func]
 
     def get_pos_info(self, node):
-        # (file, the function's first line, its indent, its name) fix the source lines the
-        # message quotes; the node's type and span fix the rest of it
-        key = (self.file, self.lineno_offset, self.indent, self.func.func.__name__, type(node),
-               node.lineno, getattr(node, "end_lineno", None), node.col_offset, getattr(node, "end_col_offset", None))
+        # the function's code (a redefinition has other code), file, line offset (which
+        # Taichi may take from the call site), indent and name fix the source lines the
+        # message quotes and its header; the node's type and span fix the rest of it
+        func = self.func.func
+        key = (getattr(func, "__code__", None), self.file, self.lineno_offset, self.indent, func.__name__,
+               type(node), node.lineno, getattr(node, "end_lineno", None), node.col_offset,
+               getattr(node, "end_col_offset", None))
         message = messages.get(key)
         if message is None:
             if len(messages) >= MAX_MESSAGES:
