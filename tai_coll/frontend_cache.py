@@ -17,6 +17,7 @@ does so only for the Taichi versions it was written against (1.7), whose fronten
 checked; anywhere else it leaves Taichi alone. TAI_COLL_FRONTEND_CACHE=0 leaves it off.
 """
 
+import functools
 import os
 
 import taichi as ti
@@ -54,20 +55,14 @@ def install() -> bool:
     except (ImportError, AttributeError):
         return False
     read_lines, read_file, position = originals
-    lines_of, file_of, messages = {}, {}, {}
+    # a function's source lines, first line's number and file do not change while the process
+    # runs (Taichi reads them for every specialisation and call site)
+    lines_of = functools.cache(read_lines)
+    messages = {}
 
     def getsourcelines(func):
-        # the lines and the first line's number of a function: its source does not change
-        # while the process runs (Taichi reads it for every specialisation and call site)
-        if func not in lines_of:
-            lines_of[func] = read_lines(func)
-        lines, start = lines_of[func]
-        return list(lines), start
-
-    def getsourcefile(func):
-        if func not in file_of:
-            file_of[func] = read_file(func)
-        return file_of[func]
+        lines, start = lines_of(func)
+        return list(lines), start  # (a list of its own for each caller, as before)
 
     def get_pos_info(self, node):
         # the function's code (a redefinition has other code), file, line offset (which
@@ -85,7 +80,7 @@ def install() -> bool:
         return message
 
     kernel_impl.getsourcelines = getsourcelines
-    kernel_impl.getsourcefile = getsourcefile
+    kernel_impl.getsourcefile = functools.cache(read_file)
     context.get_pos_info = get_pos_info
     _installed = True
     return True

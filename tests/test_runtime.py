@@ -50,7 +50,6 @@ def test_stale_generation_is_refused():
 
 
 FRONTEND_PROBE = '''
-import sys
 import taichi as ti
 import tai_coll as tc
 
