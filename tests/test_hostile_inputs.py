@@ -393,3 +393,31 @@ def test_a_file_trimesh_cannot_parse_names_the_argument_and_the_file(load, tmp_p
         MESH_LOADERS[load](tmp_path / "missing.stl")
     with pytest.raises(ValueError, match=f"^mesh: {re.escape(repr(str(tmp_path)))} is not a file"):
         MESH_LOADERS[load](tmp_path)
+
+
+def test_particle_collisions_refuse_more_particles_than_their_lists_can_index(monkeypatch):
+    # Taichi 1.7 computes an array element's offset in 32-bit integers: neighbour lists of
+    # NEIGHBOUR_CAPACITY ints a particle index at most MAX_LISTED particles. A scene with pairs
+    # refuses more, naming the argument, before anything is stored; shown with the limit
+    # lowered to 100 (the real one needs some GB).
+    from tai_coll.neighbors.hash_grid import MAX_LISTED, NEIGHBOUR_CAPACITY
+
+    assert MAX_LISTED * NEIGHBOUR_CAPACITY <= 2**31 - 1 < (MAX_LISTED + 1) * NEIGHBOUR_CAPACITY
+    monkeypatch.setattr("tai_coll.scene.scene.MAX_LISTED", 100)
+    lattice = np.stack(np.meshgrid(*[np.arange(5) * 0.02] * 3, indexing="ij"), -1).reshape(-1, 3)  # 125
+
+    crowded = tc.Scene()
+    crowded.add_particles(positions=lattice, radius=0.005)
+    with pytest.raises(ValueError, match=r"particle collisions hold at most 100 particles.*has 125"):
+        crowded.enable_particle_collisions(material=tc.Material())
+    assert crowded.particle_collisions is None
+
+    scene = tc.Scene()
+    scene.add_particles(positions=lattice[:60], radius=0.005)
+    scene.enable_particle_collisions(material=tc.Material())
+    with pytest.raises(ValueError, match=r"^positions: .* at most 100 particles .* has 60, and 41 more"):
+        scene.add_particles(positions=lattice[60:101] + 1.0, radius=0.005)
+    assert scene.num_particles == 60
+    scene.add_particles(positions=lattice[60:100] + 1.0, radius=0.005)  # up to the limit
+    scene.step(1)
+    assert scene.num_particles == 100 and np.all(np.isfinite(scene.positions()))

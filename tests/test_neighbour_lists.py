@@ -50,6 +50,36 @@ def assert_lists_match_brute_force(grid, x, radius, margin, forward):
     assert grid.dropped() == 0
 
 
+@pytest.mark.parametrize("interleaved", [False, True])
+@pytest.mark.parametrize("n", [1, 5, 255, 257, 1000])
+def test_cell_span_is_the_active_particles_lowest_and_highest_cell(n, interleaved):
+    # Both ways of sharing the particles among threads (runs on a CPU, every blocks-th on a
+    # GPU), with counts below, just above and well above one share or one run each; the
+    # particles after the first n, and inactive ones, are left out.
+    import taichi as ti
+
+    from tai_coll import runtime
+    from tai_coll.neighbors.hash_grid import cell_span
+    from tai_coll.types import ACTIVE
+
+    rng = np.random.default_rng(n)
+    cell = 0.01
+    x = rng.uniform(-0.5, 0.7, (n + 3, 3))
+    x[n:] = 50.0  # beyond n: not counted
+    flags = np.full(n + 3, ACTIVE, np.int32)
+    if n > 1:
+        x[0] = (-9.0, 9.0, 0.0)  # far, but not active
+        flags[0] = ACTIVE + 1
+    xs, fs = on_device(x), on_device(flags)
+    bounds = ti.ndarray(ti.i32, shape=6)
+    lo, hi = cell_span(xs, fs, n, 1.0 / cell, bounds, interleaved)
+    xd = x.astype(runtime.float_dtype())  # the kernel's arithmetic: floor(x / cell) in its precision
+    cells = np.floor(xd[:n][flags[:n] == ACTIVE] * xd.dtype.type(1.0 / cell)).astype(int)
+    assert np.array_equal(lo, cells.min(axis=0)) and np.array_equal(hi, cells.max(axis=0))
+    fs_none = on_device(np.full(n + 3, ACTIVE + 1, np.int32))
+    assert cell_span(xs, fs_none, n, 1.0 / cell, bounds, interleaved) is None
+
+
 def test_table_bits_follow_the_particles_extent():
     # Each axis gets the bits its extent in cells plus the query's cell on either side needs,
     # at least MIN_BITS; past the table's total, bits come off the axis holding the most (z,

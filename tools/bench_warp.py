@@ -4,7 +4,8 @@ particles are in contact (issue 23). Warp (`warp-lang`) is a benchmark-only extr
 
     python tools/bench_warp.py                         # both rows: a 1M layer, a 100k bed (CPU)
     python tools/bench_warp.py --rows bed --bed-particles 20000 --warp-variants impulse
-    python tools/bench_warp.py --arch cuda --layer-particles 10000000
+    python tools/bench_warp.py --arch cuda --layer-particles 1000000,10000000 --layer-frames 100 \
+        --bed-particles 1000000,10000000                 # the GPU rows, each size in turn
 
 Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second):
 - layer: N particles at rest in a layer 0 to 2 cm above a floor plane, 10 substeps a frame.
@@ -41,8 +42,11 @@ Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second)
   The first Warp solver here (PBD, 5.0e5 particle-steps/s) queried the hash grid in every
   Jacobi pass: 4 queries a step of 27 cells of 2 r, about 400 ns a particle each, 97 % of its
   time; and it cleared a 128^3 grid (16 MB) every build.
-Warp's CPU backend runs one thread; tai_coll runs --threads (default 2). Prints a table with
-the ratios and writes bench_results/bench_warp.json (every solver's figures and settings).
+Warp's CPU backend runs one thread; tai_coll runs --threads (default 2). On a GPU each side's
+timed steps end with a synchronize (Taichi's ti.sync, Warp's synchronize_device). tai_coll's
+rows also give the bytes a particle of every array its scene holds (Scene.state_nbytes).
+Prints a table with the ratios and writes bench_results/bench_warp.json (every solver's
+figures and settings), rewritten as each row is finished.
 """
 
 import argparse
@@ -51,6 +55,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import taichi as ti
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -92,11 +97,14 @@ def tai_coll_layer(n: int, frames: int) -> dict:
     scene.add_collider(tc.Plane(), material=tc.Material(restitution=E, friction=MU))
     scene.add_particles(positions=layer_positions(n), radius=R)
     scene.step(2)  # (compiles)
+    ti.sync()
     t0 = time.perf_counter()
     scene.step(frames)
+    ti.sync()  # (a GPU's launches return before they finish)
     seconds = time.perf_counter() - t0
     y = scene.positions()[:, 1]
-    return {"rate": n * SUBSTEPS * frames / seconds, "seconds": seconds, "lowest": float(y.min())}
+    return {"rate": n * SUBSTEPS * frames / seconds, "seconds": seconds, "lowest": float(y.min()),
+            "state_bytes_per_particle": scene.state_nbytes() / n}
 
 
 def tai_coll_bed(n: int, settle: int, timed: int) -> dict:
@@ -109,11 +117,14 @@ def tai_coll_bed(n: int, settle: int, timed: int) -> dict:
     scene.add_particles(positions=x, radius=R)
     scene.enable_particle_collisions(material=tc.Material(restitution=E, friction=MU))
     scene.step(settle // SUBSTEPS)
+    ti.sync()
     t0, c0 = time.perf_counter(), time.process_time()
     scene.step(timed // SUBSTEPS)
+    ti.sync()
     seconds = time.perf_counter() - t0
     return {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": time.process_time() - c0,
-            "mean_overlap": scene.particle_overlap()["mean"], **speeds(scene.velocities())}
+            "mean_overlap": scene.particle_overlap()["mean"], **speeds(scene.velocities()),
+            "state_bytes_per_particle": scene.state_nbytes() / n}
 
 
 # ---------------------------------------------------------------------- Warp
@@ -714,23 +725,38 @@ def print_table(rows: list, header: str) -> None:
     for r in rows:
         if r["row"] == "layer":
             line("layer", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
-                 f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} mm")
+                 f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} mm; "
+                 f"{r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
             line("", "", "warp", r["warp"], r["ratio"], f"one kernel a step; lowest centre "
                  f"{r['warp']['lowest'] * 1e3:.3f} mm")
             continue
-        line("bed", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None, "Gauss-Seidel impulses (default)")
+        line("bed", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
+             f"Gauss-Seidel impulses (default); {r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
         for k, res in r["warp"].items():
             notes = WARP_NOTES[k]() + (f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
             line("", "", k, res, r["ratio"][k], notes)
         print(f"{'':<6} {'':>10}  tai_coll against Warp's best ({r['warp_best']}): {r['ratio_to_best']:.2f}x")
 
 
+def sizes(text: str) -> list:
+    """A comma-separated list of particle counts (argparse type)."""
+    try:
+        counts = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected particle counts such as 1000000,10000000; got {text!r}")
+    if not counts or min(counts) < 1:
+        raise argparse.ArgumentTypeError(f"expected positive particle counts; got {text!r}")
+    return counts
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rows", default="layer,bed")
-    parser.add_argument("--layer-particles", type=int, default=1_000_000)
+    parser.add_argument("--layer-particles", type=sizes, default=[1_000_000],
+                        help="layer sizes, comma-separated (default 1000000)")
     parser.add_argument("--layer-frames", type=int, default=10)
-    parser.add_argument("--bed-particles", type=int, default=100_000)
+    parser.add_argument("--bed-particles", type=sizes, default=[100_000],
+                        help="bed sizes, comma-separated (default 100000)")
     parser.add_argument("--settle", type=int, default=300, help="bed: steps to settle (default 300)")
     parser.add_argument("--timed", type=int, default=100, help="bed: steps timed (default 100)")
     parser.add_argument("--warp-variants", default=",".join(WARP_VARIANTS),
@@ -754,23 +780,28 @@ def main(argv=None):
     kernels = warp_kernels(wp)
     rows = []
     wanted = args.rows.split(",")
-    if "layer" in wanted:
-        n = args.layer_particles
-        ours, theirs = tai_coll_layer(n, args.layer_frames), warp_layer(wp, kernels, n, args.layer_frames, device)
-        rows.append({"row": "layer", "particles": n, "tai_coll": ours, "warp": theirs,
-                     "ratio": ours["rate"] / theirs["rate"]})
-    if "bed" in wanted:
-        n = args.bed_particles
-        ours = tai_coll_bed(n, args.settle, args.timed)
-        theirs = {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}
-        rows.append(bed_row(n, ours, theirs))
-    print_table(rows, f"tai_coll {tc.__version__} ({args.arch}, {args.threads if args.arch == 'cpu' else ''} "
-                      f"threads) against Warp {wp.__version__} ({device}), f32, dt {DT:.4g} s; steps/s: "
-                      f"particle-steps per second (bed: steps of dt; overlap: mean of touching pairs)")
     settings = {"pbd": PBD, "impulse": IMPULSE, "dem": {**DEM, "density": DEM_DENSITY, **dem_parameters()},
                 "rest_speed": REST_SPEED, "list_capacity": CAPACITY}
     report = {"benchmark": "bench_warp", "machine": machine_info(args), "warp": wp.__version__,
               "warp_settings": settings, "rows": rows}
+
+    def done(row):  # every row written as it is finished (a long GPU run may be cut short)
+        rows.append(row)
+        write_json(args.out, report)
+        print(f"  done: {row['row']} of {row['particles']:,}", flush=True)
+
+    if "layer" in wanted:
+        for n in args.layer_particles:
+            ours, theirs = tai_coll_layer(n, args.layer_frames), warp_layer(wp, kernels, n, args.layer_frames, device)
+            done({"row": "layer", "particles": n, "tai_coll": ours, "warp": theirs,
+                  "ratio": ours["rate"] / theirs["rate"]})
+    if "bed" in wanted:
+        for n in args.bed_particles:
+            ours = tai_coll_bed(n, args.settle, args.timed)
+            done(bed_row(n, ours, {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}))
+    print_table(rows, f"tai_coll {tc.__version__} ({args.arch}, {args.threads if args.arch == 'cpu' else ''} "
+                      f"threads) against Warp {wp.__version__} ({device}), f32, dt {DT:.4g} s; steps/s: "
+                      f"particle-steps per second (bed: steps of dt; overlap: mean of touching pairs)")
     print(f"wrote {write_json(args.out, report)}")
 
 

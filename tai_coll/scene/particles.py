@@ -129,6 +129,7 @@ class ParticleStore:
     def __init__(self, capacity: int = 1024):
         self.count = 0
         self.capacity = 0
+        self.max_count = None  # the most particles the store may hold (particle collisions' lists); None: no limit
         self.max_radius = 0.0  # kept on the host: the hash grid's cell size needs it every substep
         self.min_radius = float("inf")  # (Scene's substeps="auto" needs it every frame)
         self.mass_range = (float("inf"), 0.0)  # lightest and heaviest mass (the pair solver's shock propagation)
@@ -229,6 +230,9 @@ class ParticleStore:
         if self.next_id + n > MAX_IDS:
             raise ValueError(f"positions: this scene has given out {self.next_id:,} particle ids; {n:,} more would "
                              f"pass the {MAX_IDS:,} it can hold")
+        if self.max_count is not None and self.count + n > self.max_count:
+            raise ValueError(f"positions: with particle collisions a scene holds at most {self.max_count:,} particles "
+                             f"(their neighbour lists' limit); it has {self.count:,}, and {n:,} more would pass it")
         if self.count + n > self.capacity:
             self._allocate(max(2 * self.capacity, self.count + n))
         start = self.count

@@ -13,7 +13,7 @@ from ..bodies.system import BodyMotion, BodySystem
 from ..errors import SimulationError
 from ..geometry.colliders import Collider
 from ..materials import Material
-from ..neighbors.hash_grid import NEIGHBOUR_CAPACITY
+from ..neighbors.hash_grid import MAX_LISTED, NEIGHBOUR_CAPACITY
 from ..response.repulsion import RepulsionField
 from ..solvers import ImpulseSolver, Solver, World
 from ..solvers.pairs import PairSettings, ParticleCollisions
@@ -216,10 +216,14 @@ class Scene:
         contact with tangential_springs). Returns the scene's ParticleCollisions (settings and
         counters)."""
         settings = PairSettings(material=material, **options)
+        if self._particles.count > MAX_LISTED:
+            raise ValueError(f"particle collisions hold at most {MAX_LISTED:,} particles (their neighbour lists' "
+                             f"limit, Taichi's 32-bit array offsets); this scene has {self._particles.count:,}")
         if settings.tangential_springs and self.solver.pair_model != "dem":
             raise ValueError("tangential_springs: DEM pairs only (the scene's solver must be a tc.PenaltySolver; "
                              f"got {type(self.solver).__name__}, whose pair impulses hold statically already)")
         self._pairs = ParticleCollisions(settings)
+        self._particles.max_count = MAX_LISTED
         self._particles.wake_all()
         self._world = dataclasses.replace(self._world, pair_contacts=True)
         self._warned_dropped = self._warned_crushed = False
