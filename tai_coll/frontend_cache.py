@@ -31,7 +31,7 @@ MAX_MESSAGES = 200_000
 _installed = False
 
 
-def _version() -> tuple:
+def taichi_version() -> tuple:
     """(major, minor) of the Taichi imported (ti.__version__ is a tuple of ints in 1.7)."""
     version = ti.__version__
     if isinstance(version, str):
@@ -45,7 +45,7 @@ def install() -> bool:
     global _installed
     if _installed:
         return True
-    if os.environ.get("TAI_COLL_FRONTEND_CACHE", "1") == "0" or _version() not in CHECKED_VERSIONS:
+    if os.environ.get("TAI_COLL_FRONTEND_CACHE", "1") == "0" or taichi_version() not in CHECKED_VERSIONS:
         return False
     try:
         from taichi.lang import kernel_impl

@@ -1,11 +1,14 @@
 """tc.init: idempotent with the same arguments, and the arch/precision it reports."""
 
+import os
+
 import numpy as np
+import pytest
 
 import tai_coll as tc
 from tai_coll import runtime
 
-from conftest import TEST_ARCH
+from conftest import TEST_ARCH, add_box_of_planes
 
 
 def test_init_twice_with_same_arguments_is_harmless():
@@ -33,8 +36,6 @@ def test_cpu_kernels_compile_without_taichis_cfg_optimisation():
     # runtime._start: on the CPU Taichi's CFG passes are off unless TI_CFG_OPTIMIZATION says
     # otherwise (they cost most of the largest kernels' compile time, and LLVM optimises
     # anyway); every test on the CPU compiles this way
-    import os
-
     from taichi.lang import impl
 
     setting = os.environ.get("TI_CFG_OPTIMIZATION")
@@ -101,7 +102,6 @@ def test_taichis_frontend_memos_leave_its_error_messages_as_they_were(tmp_path):
     # position. A kernel that compiles gives the same result, and a compile error in a
     # @ti.func the same message (file, line, the line with its caret) as without the memos,
     # here after a function of the same shape was compiled at two call sites.
-    import os
     import subprocess
     import sys
 
@@ -127,3 +127,48 @@ def test_taichis_frontend_memos_leave_its_error_messages_as_they_were(tmp_path):
     # (the two functions' last lines differ only in the name, of the same length: a message
     # kept for `near` would quote its line)
     assert "return a * 2.0 + unknown_value" in text and "^^^^^^^^^^^^^" in text
+
+
+def _piles_after(frames: int) -> list:
+    """Positions and velocities of three small piles falling into a box for `frames` frames:
+    Gauss-Seidel impulse pairs with sleeping (its default), Jacobi passes, and DEM pairs with
+    tangential springs and spinning particles; each 300 particles, on a jittered lattice."""
+    rng = np.random.default_rng(5)
+    g = np.arange(-2, 3) * 0.012
+    lattice = np.stack(np.meshgrid(g, np.arange(12) * 0.012 + 0.01, g, indexing="ij"), -1).reshape(-1, 3)
+    x = lattice + rng.uniform(-0.001, 0.001, lattice.shape)
+    cases = [(tc.ImpulseSolver(), dict(sleep_time=0.02)), (tc.ImpulseSolver(), dict(method="jacobi")),
+             (tc.PenaltySolver(hertz=200.0, spin=True), dict(tangential_springs=True))]
+    out = []
+    for solver, options in cases:
+        dt = 7.5e-5 if isinstance(solver, tc.PenaltySolver) else 1e-3
+        scene = tc.Scene(dt=dt, substeps=5, solver=solver)
+        add_box_of_planes(scene, 0.04, tc.Material(restitution=0.2, friction=0.4))
+        scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), **options)
+        scene.add_particles(positions=x, radius=0.005)
+        scene.step(frames)
+        out += [scene.positions(), scene.velocities()]
+    return out
+
+
+def test_small_scenes_serial_kernels_give_the_parallel_kernels_numbers(monkeypatch):
+    # A scene of few particles steps with serial variants of the kernels on the CPU
+    # (tai_coll/serial_loops.py): the same numbers as the thread pool's kernels up to
+    # round-off (LLVM may fuse multiplies and adds differently), and the same every run.
+    from tai_coll import serial_loops
+
+    if TEST_ARCH != "cpu" or os.environ.get("TAI_COLL_SERIAL_SMALL") == "0":
+        pytest.skip("GPUs launch no serial variants; TAI_COLL_SERIAL_SMALL=0 turns them off")
+    assert serial_loops.install() and 300 * runtime.info().threads <= serial_loops.SERIAL_WORK
+    with serial_loops.small(300, True, runtime.info().threads) as serial_now:
+        assert serial_now
+    serial = _piles_after(12)
+    assert all(np.array_equal(a, b) for a, b in zip(serial, _piles_after(12)))
+    from tai_coll.solvers.pairs.gauss_seidel import _pass
+
+    assert any(key[-1] == "serial" for key in _pass._primal.mapper.mapping)  # the serial variants ran
+    monkeypatch.setattr(serial_loops, "SERIAL_WORK", 0)  # every scene now launches the thread pool's kernels
+    parallel = _piles_after(12)
+    for a, b in zip(serial, parallel):
+        assert np.abs(a - b).max() <= 1e-12
+    assert np.abs(serial[0][:, 1] - serial[0][:, 1].max()).max() > 0.01  # (the piles did fall)

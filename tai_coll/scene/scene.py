@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from .. import export, notices, runtime, validate
+from .. import export, notices, runtime, serial_loops, validate
 from ..bodies.body import Body
 from ..bodies.mass_properties import mass_properties
 from ..bodies.system import BodyMotion, BodySystem
@@ -256,6 +256,12 @@ class Scene:
     def step(self, frames: int = 1) -> None:
         """Advance `frames` frames of `substeps` substeps of `dt` seconds."""
         frames = validate.integer("frames", frames, low=0)
+        # a small scene launches serial kernels on the CPU (tai_coll/serial_loops.py)
+        info = runtime.ensure_init()
+        with serial_loops.small(self.num_particles, info.arch == "cpu", info.threads):
+            self._step(frames)
+
+    def _step(self, frames: int) -> None:
         kinematic = self._colliders.has_kinematic
         sinks = len(self._sinks) > 0
         emitting = bool(self._emitters)
