@@ -5,15 +5,16 @@ launching thread wakes the workers and waits for every one of them to report bac
 the loop has two iterations. Measured on the AMD EPYC of docs/benchmarks.md (2 threads): a
 kernel of one two-iteration loop costs 169 us a launch, one of eight such loops 367 us, and the
 same eight loops run serially 58 us. A scene of a few particles makes a dozen launches a
-substep, so most of its time went to waking threads that had nothing to do.
+substep, so a good part of its time went to waking threads that had nothing to do.
 
 `install()` (called by tc.init) lets Taichi compile a second, serial variant of any kernel:
 while `small(...)` is in force for a scene of at most SERIAL_WORK / threads particles on the
 CPU, a launch looks up and compiles its kernel under a key that also holds the word "serial",
 and each range loop of a kernel compiled then runs on the launching thread (Taichi's own
 `ti.loop_config(serialize=True)`, given to every range loop). The kernels' code is the same,
-and so are their results up to round-off: LLVM may fuse a multiply and an add (fast math)
-differently once a loop is no longer a task of its own. Measured after 12 frames of a
+and so are their results up to round-off (presumably LLVM, under Taichi's fast math, fuses
+multiplies and adds differently once a loop is no longer a task of its own; the generated code
+was not compared). Measured after 12 frames of a
 300-particle pile (tests/test_runtime.py): Gauss-Seidel positions 7e-17 m and velocities
 2e-14 m/s apart, Jacobi and DEM pairs bit-identical. A scene still gives the same numbers
 every run, since the variant follows from its particle count; one that grows past the limit
