@@ -39,13 +39,19 @@ def taichi_version() -> tuple:
     return tuple(version[:2])
 
 
+def may_patch(variable: str) -> bool:
+    """Whether tai_coll may change Taichi's Python frontend: a Taichi version it was checked
+    against, and the environment variable `variable` not set to 0 (it turns the change off)."""
+    return os.environ.get(variable, "1") != "0" and taichi_version() in CHECKED_VERSIONS
+
+
 def install() -> bool:
     """Memoise Taichi's source reads and position messages; returns whether they are on
     (False: another Taichi version, or TAI_COLL_FRONTEND_CACHE=0). Safe to call again."""
     global _installed
     if _installed:
         return True
-    if os.environ.get("TAI_COLL_FRONTEND_CACHE", "1") == "0" or taichi_version() not in CHECKED_VERSIONS:
+    if not may_patch("TAI_COLL_FRONTEND_CACHE"):
         return False
     try:
         from taichi.lang import kernel_impl

@@ -28,7 +28,7 @@ off (every launch then uses Taichi's thread pool, as before).
 import contextlib
 import os
 
-from .frontend_cache import CHECKED_VERSIONS, taichi_version
+from .frontend_cache import may_patch
 
 #: A scene launches serial kernels while its particles times the runtime's threads are at most
 #: this. Measured on the EPYC (2 threads, docs/design-notes.md, "Small scenes"): serial was
@@ -48,7 +48,7 @@ def install() -> bool:
     global _installed
     if _installed:
         return True
-    if os.environ.get("TAI_COLL_SERIAL_SMALL", "1") == "0" or taichi_version() not in CHECKED_VERSIONS:
+    if not may_patch("TAI_COLL_SERIAL_SMALL"):
         return False
     try:
         from taichi.lang import kernel_impl, misc
