@@ -29,6 +29,14 @@ vec4 = ti.math.vec4
 ivec3 = ti.math.ivec3
 mat3 = ti.math.mat3
 
+def host_vector(values) -> tuple:
+    """A vector kernel argument made on the host: its entries as a tuple of floats. Taichi
+    takes any sequence of numbers for a vector parameter, and building a ti.Vector on the
+    host for each launch cost about as much as setting the launch's other arguments
+    (docs/design-notes.md, "Launches")."""
+    return tuple(map(float, values))
+
+
 def new_ndarray(dtype, element_shape, shape):
     """A Taichi ndarray of `shape` items of `dtype` whose elements have `element_shape`:
     () a scalar, (n,) a vector, (n, m) a matrix (as an existing array's `element_shape`)."""

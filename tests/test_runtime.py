@@ -172,3 +172,129 @@ def test_small_scenes_serial_kernels_give_the_parallel_kernels_numbers(monkeypat
     for a, b in zip(serial, parallel):
         assert np.abs(a - b).max() <= 1e-12
     assert np.abs(serial[0][:, 1] - serial[0][:, 1].max()).max() > 0.01  # (the piles did fall)
+
+
+PackForTest = None
+
+
+def _probe_kernel():
+    """A kernel with every kind of parameter the shorter launch path sets (tai_coll/fast_launch.py):
+    a pack of arrays and an integer, an array, a float, an integer, a vector, a template."""
+    import taichi as ti
+
+    global PackForTest
+    if PackForTest is None:
+        PackForTest = ti.types.argpack(count=ti.i32, a=ti.types.ndarray(ndim=1), b=ti.types.ndarray(ndim=1))
+
+    @ti.kernel
+    def probe(pack: PackForTest, out: ti.types.ndarray(ndim=1), scale: float, shift: ti.i32,
+              offset: ti.math.vec3, twice: ti.template()):
+        for i in range(pack.count):
+            value = scale * (pack.a[i] + pack.b[i]) + shift + offset[0] + 10.0 * offset[1] + 100.0 * offset[2]
+            if ti.static(twice):
+                value *= 2.0
+            out[i] = value
+
+    return probe
+
+
+def test_the_shorter_launch_path_sets_what_taichis_own_sets():
+    # tai_coll/fast_launch.py keeps Taichi's walks over a kernel's arguments per kernel: the
+    # same values reach the kernel, by position or by name, with a vector as a tuple or a
+    # ti.Vector, NumPy values, a replaced pack member of another type, and a NumPy array
+    # (which goes down Taichi's own path); Taichi's own errors for bad calls stay.
+    import taichi as ti
+    from taichi.lang import kernel_impl
+    from taichi.lang.exception import TaichiSyntaxError
+
+    from tai_coll import fast_launch
+
+    if os.environ.get("TAI_COLL_FAST_LAUNCH") == "0":
+        pytest.skip("TAI_COLL_FAST_LAUNCH=0 leaves Taichi's launch path alone")
+    assert fast_launch.install() and kernel_impl.Kernel.launch_kernel is not fast_launch.TAICHIS["launch_kernel"]
+    probe = _probe_kernel()
+    a = ti.ndarray(ti.f64, 4)
+    b = ti.ndarray(ti.f64, 4)
+    a.from_numpy(np.array([1.0, 2.0, 3.0, 4.0]))
+    b.from_numpy(np.array([0.5, 0.25, 0.125, 0.0625]))
+    pack = PackForTest(count=3, a=a, b=b)
+    out = ti.ndarray(ti.f64, 4)
+
+    def expected(scale, shift, offset, twice, a_values=(1.0, 2.0, 3.0, 4.0)):
+        values = scale * (np.array(a_values) + [0.5, 0.25, 0.125, 0.0625]) + shift + offset[0] + 10 * offset[1] \
+            + 100 * offset[2]
+        values = values * (2.0 if twice else 1.0)
+        values[3] = 0.0
+        return values
+
+    out.fill(0.0)
+    probe(pack, out, 2.0, 3, (1.0, 2.0, 3.0), False)
+    assert np.array_equal(out.to_numpy(), expected(2.0, 3, (1, 2, 3), False))
+    assert probe._primal._tc_plan is not None  # (the shorter path set these)
+    out.fill(0.0)
+    probe(twice=True, offset=ti.math.vec3(0.5, 0.0, 0.25), shift=np.int64(-1), scale=np.float64(0.5), out=out,
+          pack=pack)
+    assert np.array_equal(out.to_numpy(), expected(0.5, -1, (0.5, 0.0, 0.25), True))
+    # a member replaced by an array of another element type: another compiled instance
+    a32 = ti.ndarray(ti.f32, 4)
+    a32.from_numpy(np.array([8.0, 16.0, 32.0, 64.0], dtype=np.float32))
+    pack["a"] = a32
+    out.fill(0.0)
+    probe(pack, out, 1.0, 0, (0.0, 0.0, 0.0), False)
+    assert np.array_equal(out.to_numpy(), expected(1.0, 0, (0, 0, 0), False, (8.0, 16.0, 32.0, 64.0)))
+    # a NumPy array for the array parameter: Taichi's own path, results written back
+    host = np.zeros(4)
+    probe(pack, host, 1.0, 0, (0.0, 0.0, 0.0), False)
+    assert np.array_equal(host, expected(1.0, 0, (0, 0, 0), False, (8.0, 16.0, 32.0, 64.0)))
+    # the same numbers through Taichi's own functions
+    mine = out.to_numpy()
+    kernel_impl.Kernel.launch_kernel, saved = fast_launch.TAICHIS["launch_kernel"], kernel_impl.Kernel.launch_kernel
+    try:
+        out.fill(0.0)
+        probe(pack, out, 1.0, 0, (0.0, 0.0, 0.0), False)
+    finally:
+        kernel_impl.Kernel.launch_kernel = saved
+    assert np.array_equal(out.to_numpy(), mine)
+    # Taichi's own errors
+    with pytest.raises(TaichiSyntaxError, match="Unexpected argument 'scael'"):
+        probe(pack, out, 1.0, 0, (0.0, 0.0, 0.0), twice=False, scael=1.0)
+    with pytest.raises(TaichiSyntaxError, match="Multiple values for argument 'pack'"):
+        probe(pack, out, 1.0, 0, (0.0, 0.0, 0.0), False, pack=pack)
+    with pytest.raises(TaichiSyntaxError, match="missing"):
+        probe(pack, out, 1.0, 0, (0.0, 0.0, 0.0))
+    # a value of the wrong type: whatever Taichi's own path raises (for a float parameter
+    # annotated `float`, Taichi 1.7 fails while writing its message: AttributeError)
+    raised = []
+    for launch in (kernel_impl.Kernel.launch_kernel, fast_launch.TAICHIS["launch_kernel"]):
+        kernel_impl.Kernel.launch_kernel, saved = launch, kernel_impl.Kernel.launch_kernel
+        try:
+            with pytest.raises(Exception) as error:
+                probe(pack, out, "fast", 0, (0.0, 0.0, 0.0), False)
+        finally:
+            kernel_impl.Kernel.launch_kernel = saved
+        raised.append((type(error.value), str(error.value)))
+    assert raised[0] == raised[1]
+
+
+def test_the_shorter_launch_path_gives_a_pile_the_same_bits():
+    # Stepping a scene through Taichi's own launch functions and through the shorter path:
+    # bit-identical piles (the same compiled kernels get the same arguments).
+    from taichi.lang import kernel_impl
+
+    from tai_coll import fast_launch
+
+    if os.environ.get("TAI_COLL_FAST_LAUNCH") == "0":
+        pytest.skip("TAI_COLL_FAST_LAUNCH=0 leaves Taichi's launch path alone")
+    mine = _piles_after(6)
+    mapper = kernel_impl.TaichiCallableTemplateMapper
+    replaced = {"process_args": (kernel_impl, "_process_args"), "extract": (mapper, "extract"),
+                "launch_kernel": (kernel_impl.Kernel, "launch_kernel")}
+    saved = {name: getattr(owner, attribute) for name, (owner, attribute) in replaced.items()}
+    try:
+        for name, (owner, attribute) in replaced.items():
+            setattr(owner, attribute, fast_launch.TAICHIS[name])
+        theirs = _piles_after(6)
+    finally:
+        for name, (owner, attribute) in replaced.items():
+            setattr(owner, attribute, saved[name])
+    assert all(np.array_equal(a, b) for a, b in zip(mine, theirs))

@@ -25,7 +25,7 @@ import taichi as ti
 
 from .. import notices, runtime, validate
 from ..geometry.colliders import Box, Cylinder, Sphere
-from ..types import ACTIVE, REMOVED, ParticleArgs, vec3
+from ..types import ACTIVE, REMOVED, ParticleArgs, host_vector, vec3
 
 #: Random points of the region tried per particle owed before it is skipped.
 ATTEMPTS = 16
@@ -247,7 +247,7 @@ class Sinks:
             self._found = ti.ndarray(ti.i32, shape=1)
         self._found.fill(0)
         reach = _bound(emitter.kind, emitter.size) + emitter.radius
-        _gather_near(particles.args, vec3(*emitter.center), reach, self._found, self._near)
+        _gather_near(particles.args, host_vector(emitter.center), reach, self._found, self._near)
         k = int(self._found[0])
         if not k:
             return np.zeros((0, 3)), np.zeros(0)

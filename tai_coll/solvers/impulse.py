@@ -35,7 +35,7 @@ from .. import validate
 from ..geometry import kinds
 from ..response.laws import WET_LAWS
 from ..response.repulsion import RepulsionField, pack
-from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, vec3
+from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, host_vector, vec3
 from .base import Solver
 from .detection import keep_out
 from .integrate import flag, state_status, store, symplectic_euler, try_flight_in_front, try_free_flight
@@ -325,9 +325,9 @@ class ImpulseSolver(Solver):
         use_domain, lo, hi = world.domain_bounds()
         return dict(scheme=SCHEMES[self.scheme], wet_law=WET_LAWS[self.wet_law], max_iterations=self.max_iterations,
                     elastic_iterations=self.elastic_iterations,
-                    last_resort=last_resort6(self.push_fraction, *pack(self.last_resort)),
+                    last_resort=host_vector((self.push_fraction, *pack(self.last_resort))),
                     max_push_speed=self.max_push_speed, slop_fraction=self.slop, rest_speed=rest_speed,
-                    use_domain=use_domain, domain_lo=vec3(*lo), domain_hi=vec3(*hi))
+                    use_domain=use_domain, domain_lo=host_vector(lo), domain_hi=host_vector(hi))
 
     def resolve_candidates(self, world, dt: float, candidate_x, candidate_v, *, contact_only=False,
                            store_state=True):
@@ -364,7 +364,7 @@ class ImpulseSolver(Solver):
                         kinematic=table.has_kinematic, clearances=store.clearance, separations=store.separation,
                         reuse_clearance=int(reuse), reuse_separation=int(reuse_separation),
                         reuse_rest=int(reuse_rest), n_substeps=substeps,
-                        gravity=vec3(*world.gravity), dt=dt, **law)
+                        gravity=host_vector(world.gravity), dt=dt, **law)
         store.clearances_written(table)
         store.separation_key = store.clearance_key
         store.rest_map = same_map

@@ -34,7 +34,7 @@ from ..response.penalty import (BACKWARD_EULER, FIELD_NONE, SPHERE_INERTIA, SYMP
                                 friction_force, spin_friction, spring_damper, spring_damper_implicit)
 from ..response.exchange import record_force
 from ..response.repulsion import pack
-from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, SpinArgs, Unused, unused, vec3
+from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, SpinArgs, Unused, host_vector, unused, vec3
 from .base import Solver
 from .detection import BOUND_SLOT, INFINITY, carried, collider_sdf, surface_velocity
 from .integrate import store
@@ -445,9 +445,9 @@ class PenaltySolver(Solver):
         particles.mark_moved()
         kernel = penalty_kernel(self.spin, loads is not None)
         kernel(particles=particles.args, colliders=world.colliders.args, groups=world.colliders.groups,
-               table=self._collider_table(world.colliders), n_substeps=substeps, gravity=vec3(*world.gravity), dt=dt,
+               table=self._collider_table(world.colliders), n_substeps=substeps, gravity=host_vector(world.gravity), dt=dt,
                **self.contact_law(), integrator=INTEGRATORS[self.integrator], use_domain=use_domain,
-               domain_lo=vec3(*lo), domain_hi=vec3(*hi), spin=particles.spin_args if self.spin else unused(),
+               domain_lo=host_vector(lo), domain_hi=host_vector(hi), spin=particles.spin_args if self.spin else unused(),
                loads=loads if loads is not None else unused())
 
     def pair_substep(self, world, pairs, dt: float):

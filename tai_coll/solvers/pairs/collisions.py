@@ -45,7 +45,7 @@ from ... import runtime
 from ...neighbors.hash_grid import HashGrid
 from ...neighbors.verlet import VerletLists
 from ...response.laws import WET_LAWS
-from ...types import unused
+from ...types import host_vector, unused
 from ..penalty import Forces, ForcesAndTorques
 from . import dem, gauss_seidel, jacobi, shock
 from .overlap import overlap
@@ -261,7 +261,7 @@ class ParticleCollisions:
         self._latest_counts = self._counts[0]
         self._relax(particles, dt)
         if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
-            update_rest(particles.args, self.delta, self.v_start, ti.math.vec3(*world.gravity), dt,
+            update_rest(particles.args, self.delta, self.v_start, host_vector(world.gravity), dt,
                         settings.sleep_time, settings.sleep_drift)
 
     def _support_levels(self, world, x):
@@ -317,7 +317,7 @@ class ParticleCollisions:
         if keep:
             self.lists.ensure(self.capacity)
         predict = predict_kernel(keep)
-        launch = dict(particles=particles.args, gravity=ti.math.vec3(*world.gravity), dt=dt,
+        launch = dict(particles=particles.args, gravity=host_vector(world.gravity), dt=dt,
                       seen=self.lists.args if keep else unused(), reach2=(0.5 * skin) ** 2, keep_x=int(sleep),
                       x1=self.x1, v1=self.v1, stale=self.changed, v_start=self.v_start, x_start=self.delta)
         if self.lists.key == key and keep:

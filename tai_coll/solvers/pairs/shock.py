@@ -29,7 +29,7 @@ immovable: the spring keeps its law up to the limit, and nothing sinks through.
 import taichi as ti
 
 from ...response.laws import pair_normal
-from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, vec3
+from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, host_vector, vec3
 from ..detection import collider_sdf
 from .placement import off_colliders
 from .sleeping import shares
@@ -134,7 +134,7 @@ def support_levels(world, lists, x1, levels, changed) -> int:
     returns the propagation passes it took."""
     gravity = world.gravity
     norm = sum(g * g for g in gravity) ** 0.5
-    up = vec3(*(-g / norm for g in gravity))
+    up = host_vector(-g / norm for g in gravity)
     table = world.colliders
     _support_from_colliders(world.particles.args, table.args, table.groups, x1, up, levels)
     for passes in range(1, MAX_LEVEL_PASSES + 1):
