@@ -25,9 +25,9 @@ three walks, against tens of microseconds in the kernel.
   depends only on its arrays' element types and dimensions, which an array keeps for life.
 
 What is set on the launch context, in which order and at which index, is what Taichi's own
-walk sets, and the same errors are raised: any argument the plan does not cover (a NumPy
-array, a texture, a nested pack, a value of an unexpected type) sends that launch down
-Taichi's own path unchanged. Only Taichi 1.7, whose launch code this was written against;
+walk sets, and the same errors are raised: any argument the plan does not cover (a texture,
+a nested pack, a NumPy array that is not C-contiguous or sits in a pack, a value of an
+unexpected type) sends that launch down Taichi's own path unchanged. Only Taichi 1.7, whose launch code this was written against;
 TAI_COLL_FAST_LAUNCH=0 leaves it off.
 """
 
@@ -55,6 +55,7 @@ def install() -> bool:
         from taichi.lang import kernel_impl, runtime_ops
         from taichi.lang._ndarray import Ndarray
         from taichi.lang.argpack import ArgPack, ArgPackType
+        from taichi.lang.enums import Layout
         from taichi.lang.exception import handle_exception_from_cpp
         from taichi.lang.matrix import MatrixType
         from taichi.types import ndarray_type, primitive_types
@@ -158,6 +159,7 @@ def install() -> bool:
     # ------------------------------------------------------------------ setting arguments
     REALS = (float, int, np.floating, np.integer)  # what Taichi's walk takes for a real, then float()
     INTEGERS = (int, np.integer)  # ... and for an integer, then int()
+    INT32_MAX = np.iinfo(np.int32).max
     MAX_SLOTS = 64  # Taichi's max_arg_num
 
     def member_plan(annotation):
@@ -195,7 +197,11 @@ def install() -> bool:
                 steps.append(("pack", (index,), members[0]))
                 slots += members[1]
             elif isinstance(annotation, ndarray_type.NdarrayType):
-                steps.append(("array", (index,), None))
+                # (for a NumPy array: how many trailing or leading axes are the element's)
+                element_dims = 0
+                if annotation.dtype is not None and id(annotation.dtype) not in primitive_types.type_ids:
+                    element_dims = annotation.dtype.ndim
+                steps.append(("array", (index,), (element_dims, annotation.layout == Layout.SOA)))
                 slots += 1
             elif isinstance(annotation, MatrixType):
                 if annotation.dtype in primitive_types.real_types:
@@ -240,13 +246,25 @@ def install() -> bool:
                     late.append(member)
                 launch_ctx.set_arg_argpack(index, value._ArgPack__argpack)
             elif what == "array":
-                if not isinstance(value, Ndarray):
-                    return False
-                v_grad = value.grad.arr if value.grad else None
-                if v_grad is None:
-                    launch_ctx.set_arg_ndarray(index, value.arr)
+                if isinstance(value, Ndarray):
+                    v_grad = value.grad.arr if value.grad else None
+                    if v_grad is None:
+                        launch_ctx.set_arg_ndarray(index, value.arr)
+                    else:
+                        launch_ctx.set_arg_ndarray_with_grad(index, value.arr, v_grad)
+                elif kind is np.ndarray and value.flags.c_contiguous:
+                    # a NumPy array in place (Taichi's set_arg_ext_array): its shape without
+                    # the element's axes
+                    element_dims, soa = detail
+                    shape = value.shape
+                    if element_dims:
+                        shape = shape[element_dims:] if soa else shape[:-element_dims]
+                    if value.size > INT32_MAX:
+                        return False  # (Taichi's own path warns)
+                    launch_ctx.set_arg_external_array_with_shape(index, int(value.ctypes.data), value.nbytes,
+                                                                 shape, 0)
                 else:
-                    launch_ctx.set_arg_ndarray_with_grad(index, value.arr, v_grad)
+                    return False
             else:  # matrix
                 number, shape = detail
                 setter = {"float": launch_ctx.set_struct_arg_float, "int": launch_ctx.set_struct_arg_int,

@@ -242,10 +242,15 @@ def test_the_shorter_launch_path_sets_what_taichis_own_sets():
     out.fill(0.0)
     probe(pack, out, 1.0, 0, (0.0, 0.0, 0.0), False)
     assert np.array_equal(out.to_numpy(), expected(1.0, 0, (0, 0, 0), False, (8.0, 16.0, 32.0, 64.0)))
-    # a NumPy array for the array parameter: Taichi's own path, results written back
+    # a NumPy array for the array parameter (written in place), and a strided one (Taichi's
+    # own path, which refuses it)
     host = np.zeros(4)
     probe(pack, host, 1.0, 0, (0.0, 0.0, 0.0), False)
     assert np.array_equal(host, expected(1.0, 0, (0, 0, 0), False, (8.0, 16.0, 32.0, 64.0)))
+    host = np.zeros(8)[::2]
+    assert not host.flags.c_contiguous
+    with pytest.raises(ValueError, match="Non contiguous"):
+        probe(pack, host, 1.0, 0, (0.0, 0.0, 0.0), False)
     # the same numbers through Taichi's own functions
     mine = out.to_numpy()
     kernel_impl.Kernel.launch_kernel, saved = fast_launch.TAICHIS["launch_kernel"], kernel_impl.Kernel.launch_kernel
