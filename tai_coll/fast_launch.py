@@ -52,7 +52,7 @@ def install() -> bool:
     if not may_patch("TAI_COLL_FAST_LAUNCH"):
         return False
     try:
-        from taichi.lang import kernel_impl, runtime_ops
+        from taichi.lang import impl, kernel_impl, runtime_ops
         from taichi.lang._ndarray import Ndarray
         from taichi.lang.argpack import ArgPack, ArgPackType
         from taichi.lang.enums import Layout
@@ -60,9 +60,8 @@ def install() -> bool:
         from taichi.lang.matrix import MatrixType
         from taichi.types import ndarray_type, primitive_types
         from taichi.types.annotations import template
-        from taichi.types.utils import is_signed
         from taichi.lang.util import cook_dtype
-        from taichi.lang import impl
+        from taichi.types.utils import is_signed
         mapper = kernel_impl.TaichiCallableTemplateMapper
         kernel = kernel_impl.Kernel
         process_args = kernel_impl._process_args
@@ -98,6 +97,7 @@ def install() -> bool:
     PRIMITIVE = {int, bool, float, str}
     real_ids = primitive_types.real_type_ids
     integer_ids = primitive_types.integer_type_ids
+
     class Part(tuple):
         """A pack's or an array's key part, its hash kept (a key is hashed on every launch)."""
 
@@ -176,14 +176,17 @@ def install() -> bool:
         return arrays, 1 + len(annotation.members)
 
     def plan_of(self):
-        """The kernel's steps, one per parameter: (what, index, detail); None if not covered."""
+        """The kernel's steps, one per parameter that is not a template: (what, index,
+        detail), and the positions of those parameters; None if not covered."""
         steps = []
+        positions = []
         slots = 0
         index = 0
-        for argument in self.arguments:
+        for position, argument in enumerate(self.arguments):
             annotation = argument.annotation
             if isinstance(annotation, template):
                 continue
+            positions.append(position)
             if id(annotation) in real_ids:
                 steps.append(("float", (index,), None))
                 slots += 1
@@ -218,15 +221,15 @@ def install() -> bool:
             index += 1
         if slots > MAX_SLOTS:
             return None  # (Taichi's own path raises its error)
-        return steps, index
+        return steps, positions
 
     def set_args(self, launch_ctx, plan, args):
         """Set the arguments on the launch context as Taichi's walk does; False (nothing
         usable set) when an argument is not what the plan covers."""
-        steps, first_late = plan
-        late = []
-        values = [arg for arg, argument in zip(args, self.arguments) if not isinstance(argument.annotation, template)]
-        for (what, index, detail), value in zip(steps, values):
+        steps, positions = plan
+        late = []  # (the packs' arrays, set after every parameter, as Taichi's walk does)
+        for (what, index, detail), position in zip(steps, positions):
+            value = args[position]
             kind = type(value)  # (exact types first: the common case, cheaply)
             if what == "float":
                 if not (kind is float or kind is int or isinstance(value, REALS)):
@@ -282,6 +285,7 @@ def install() -> bool:
                     if not isinstance(entry, accepted):
                         return False
                     setter(index + (k,), cast(entry))
+        first_late = len(steps)
         for k, array in enumerate(late):
             v_grad = array.grad.arr if array.grad else None
             if v_grad is None:
