@@ -27,30 +27,25 @@ three walks, against tens of microseconds in the kernel.
 What is set on the launch context, in which order and at which index, is what Taichi's own
 walk sets, and the same errors are raised: any argument the plan does not cover (a texture,
 a nested pack, a NumPy array that is not C-contiguous or sits in a pack, a value of an
-unexpected type) sends that launch down Taichi's own path unchanged. Only Taichi 1.7, whose launch code this was written against;
-TAI_COLL_FAST_LAUNCH=0 leaves it off.
+unexpected type) sends that launch down Taichi's own path unchanged. Only Taichi 1.7, whose
+launch code this was written against; TAI_COLL_FAST_LAUNCH=0 leaves it off.
 """
 
 import inspect
 
 import numpy as np
 
-from .frontend_cache import may_patch
+from .frontend_cache import patch_once
 
-_installed = False
 #: Taichi's own functions that install() replaced, by name (empty until installed): the
 #: tests launch through them to compare.
 TAICHIS = {}
 
 
+@patch_once("TAI_COLL_FAST_LAUNCH")
 def install() -> bool:
     """Install the shorter launch path (see the module's notes); returns whether it is on
     (False: another Taichi version, or TAI_COLL_FAST_LAUNCH=0). Safe to call again."""
-    global _installed
-    if _installed:
-        return True
-    if not may_patch("TAI_COLL_FAST_LAUNCH"):
-        return False
     try:
         from taichi.lang import impl, kernel_impl, runtime_ops
         from taichi.lang._ndarray import Ndarray
@@ -72,6 +67,8 @@ def install() -> bool:
         return False
 
     # ------------------------------------------------------------------ arguments by name
+    _EMPTY = inspect.Parameter.empty
+
     def fast_process_args(self, args, kwargs):
         # Taichi's _process_args with the names looked up in a table; any irregular call
         # (an unknown or repeated name, a missing argument) goes to Taichi's own, which raises
@@ -90,8 +87,6 @@ def install() -> bool:
         if any(value is _EMPTY for value in ret):
             return process_args(self, args, kwargs)
         return ret
-
-    _EMPTY = inspect.Parameter.empty
 
     # ------------------------------------------------------------------ the instance key
     PRIMITIVE = {int, bool, float, str}
@@ -127,7 +122,7 @@ def install() -> bool:
         if isinstance(annotation, template):
             def key(arg):
                 kind = type(arg)
-                if kind is int or kind is bool or kind is float or kind is str or arg is None:
+                if kind in PRIMITIVE or arg is None:
                     return arg  # (Taichi's own: a primitive template argument is its value)
                 if kind is tuple and all(type(item) in PRIMITIVE for item in arg):
                     return arg  # (... and a tuple of them, item by item)
@@ -207,14 +202,16 @@ def install() -> bool:
                 steps.append(("array", (index,), (element_dims, annotation.layout == Layout.SOA)))
                 slots += 1
             elif isinstance(annotation, MatrixType):
+                # (the launch context's setter for its entries, what it takes and the cast)
                 if annotation.dtype in primitive_types.real_types:
-                    kind = "float"
+                    number = ("set_struct_arg_float", REALS, float)
                 elif annotation.dtype in primitive_types.integer_types:
-                    kind = "int" if is_signed(cook_dtype(annotation.dtype)) else "uint"
+                    signed = is_signed(cook_dtype(annotation.dtype))
+                    number = ("set_struct_arg_int" if signed else "set_struct_arg_uint", INTEGERS, int)
                 else:
                     return None
                 shape = (annotation.n,) if annotation.ndim == 1 else (annotation.n, annotation.m)
-                steps.append(("matrix", (index,), (kind, shape)))
+                steps.append(("matrix", (index,), (number, shape)))
                 slots += 1
             else:
                 return None
@@ -222,6 +219,14 @@ def install() -> bool:
         if slots > MAX_SLOTS:
             return None  # (Taichi's own path raises its error)
         return steps, positions
+
+    def set_ndarray(launch_ctx, index, array):
+        """A Taichi array at `index`, with its gradient if it has one (Taichi's set_arg_ndarray)."""
+        v_grad = array.grad.arr if array.grad else None
+        if v_grad is None:
+            launch_ctx.set_arg_ndarray(index, array.arr)
+        else:
+            launch_ctx.set_arg_ndarray_with_grad(index, array.arr, v_grad)
 
     def set_args(self, launch_ctx, plan, args):
         """Set the arguments on the launch context as Taichi's walk does; False (nothing
@@ -250,11 +255,7 @@ def install() -> bool:
                 launch_ctx.set_arg_argpack(index, value._ArgPack__argpack)
             elif what == "array":
                 if isinstance(value, Ndarray):
-                    v_grad = value.grad.arr if value.grad else None
-                    if v_grad is None:
-                        launch_ctx.set_arg_ndarray(index, value.arr)
-                    else:
-                        launch_ctx.set_arg_ndarray_with_grad(index, value.arr, v_grad)
+                    set_ndarray(launch_ctx, index, value)
                 elif kind is np.ndarray and value.flags.c_contiguous:
                     # a NumPy array in place (Taichi's set_arg_ext_array): its shape without
                     # the element's axes
@@ -269,9 +270,8 @@ def install() -> bool:
                 else:
                     return False
             else:  # matrix
-                number, shape = detail
-                setter = {"float": launch_ctx.set_struct_arg_float, "int": launch_ctx.set_struct_arg_int,
-                          "uint": launch_ctx.set_struct_arg_uint}[number]
+                (setter, accepted, cast), shape = detail
+                setter = getattr(launch_ctx, setter)
                 try:
                     if len(shape) == 1:
                         entries = [value[k] for k in range(shape[0])]
@@ -279,19 +279,13 @@ def install() -> bool:
                         entries = [value[k, j] for k in range(shape[0]) for j in range(shape[1])]
                 except Exception:
                     return False
-                accepted = REALS if number == "float" else INTEGERS
-                cast = float if number == "float" else int
                 for k, entry in enumerate(entries):
                     if not isinstance(entry, accepted):
                         return False
                     setter(index + (k,), cast(entry))
         first_late = len(steps)
         for k, array in enumerate(late):
-            v_grad = array.grad.arr if array.grad else None
-            if v_grad is None:
-                launch_ctx.set_arg_ndarray((first_late + k,), array.arr)
-            else:
-                launch_ctx.set_arg_ndarray_with_grad((first_late + k,), array.arr, v_grad)
+            set_ndarray(launch_ctx, (first_late + k,), array)
         return True
 
     def fast_launch(self, t_kernel, *args):
@@ -325,5 +319,4 @@ def install() -> bool:
     mapper.extract = extract
     ArgPack.__setitem__ = pack_setitem
     kernel.launch_kernel = fast_launch
-    _installed = True
     return True

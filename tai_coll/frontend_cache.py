@@ -28,8 +28,6 @@ CHECKED_VERSIONS = {(1, 7)}
 #: Position messages kept before the memo starts again (each about 200-400 characters).
 MAX_MESSAGES = 200_000
 
-_installed = False
-
 
 def taichi_version() -> tuple:
     """(major, minor) of the Taichi imported (ti.__version__ is a tuple of ints in 1.7)."""
@@ -45,14 +43,28 @@ def may_patch(variable: str) -> bool:
     return os.environ.get(variable, "1") != "0" and taichi_version() in CHECKED_VERSIONS
 
 
+def patch_once(variable: str):
+    """Make `apply`, a function that changes Taichi and returns whether it could (False:
+    Taichi lacks what it changes), an install function: it applies once, only if
+    may_patch(variable), returns whether the change is on, and is safe to call again. Whether
+    it is on stays readable as `install.installed`. (frontend_cache, serial_loops and
+    fast_launch install their changes so.)"""
+    def decorate(apply):
+        @functools.wraps(apply)
+        def install() -> bool:
+            if not install.installed:
+                install.installed = may_patch(variable) and apply()
+            return install.installed
+
+        install.installed = False
+        return install
+    return decorate
+
+
+@patch_once("TAI_COLL_FRONTEND_CACHE")
 def install() -> bool:
     """Memoise Taichi's source reads and position messages; returns whether they are on
     (False: another Taichi version, or TAI_COLL_FRONTEND_CACHE=0). Safe to call again."""
-    global _installed
-    if _installed:
-        return True
-    if not may_patch("TAI_COLL_FRONTEND_CACHE"):
-        return False
     try:
         from taichi.lang import kernel_impl
         from taichi.lang.ast import ast_transformer_utils
@@ -88,5 +100,4 @@ def install() -> bool:
     kernel_impl.getsourcelines = getsourcelines
     kernel_impl.getsourcefile = functools.cache(read_file)
     context.get_pos_info = get_pos_info
-    _installed = True
     return True

@@ -28,7 +28,7 @@ off (every launch then uses Taichi's thread pool, as before).
 import contextlib
 import os
 
-from .frontend_cache import may_patch
+from .frontend_cache import patch_once
 
 #: A scene launches serial kernels while its particles times the runtime's threads are at most
 #: this. Measured on the EPYC (2 threads, docs/design-notes.md, "Small scenes"): serial was
@@ -38,18 +38,13 @@ from .frontend_cache import may_patch
 #: particles with 2 threads, 512 with 16).
 SERIAL_WORK = 8192
 
-_installed = False
 _serial = False  # whether the launches now use the serial variants (see small)
 
 
+@patch_once("TAI_COLL_SERIAL_SMALL")
 def install() -> bool:
     """Let kernels have serial variants (see the module's notes); returns whether it is on
     (False: another Taichi version, or TAI_COLL_SERIAL_SMALL=0). Safe to call again."""
-    global _installed
-    if _installed:
-        return True
-    if not may_patch("TAI_COLL_SERIAL_SMALL"):
-        return False
     try:
         from taichi.lang import kernel_impl, misc
         from taichi.lang.ast import ast_transformer
@@ -83,7 +78,6 @@ def install() -> bool:
     mapper.lookup = lookup
     for name, build in builders.items():
         setattr(transformer, name, serial_loop(build))
-    _installed = True
     return True
 
 
@@ -94,7 +88,7 @@ def small(count: int, cpu: bool, threads: int | None):
     at most SERIAL_WORK; the choice in force before is restored after."""
     global _serial
     before = _serial
-    _serial = _installed and cpu and count * (threads or os.cpu_count() or 1) <= SERIAL_WORK
+    _serial = install.installed and cpu and count * (threads or os.cpu_count() or 1) <= SERIAL_WORK
     try:
         yield _serial
     finally:

@@ -4,6 +4,7 @@ import os
 
 import numpy as np
 import pytest
+import taichi as ti
 
 import tai_coll as tc
 from tai_coll import runtime
@@ -93,7 +94,7 @@ except Exception as error:
     print(type(error).__name__)
     print(error)
 from tai_coll import frontend_cache
-print("memo", frontend_cache._installed)
+print("memo", frontend_cache.install.installed)
 '''
 
 
@@ -174,17 +175,12 @@ def test_small_scenes_serial_kernels_give_the_parallel_kernels_numbers(monkeypat
     assert np.abs(serial[0][:, 1] - serial[0][:, 1].max()).max() > 0.01  # (the piles did fall)
 
 
-PackForTest = None
+PackForTest = ti.types.argpack(count=ti.i32, a=ti.types.ndarray(ndim=1), b=ti.types.ndarray(ndim=1))
 
 
 def _probe_kernel():
     """A kernel with every kind of parameter the shorter launch path sets (tai_coll/fast_launch.py):
     a pack of arrays and an integer, an array, a float, an integer, a vector, a template."""
-    import taichi as ti
-
-    global PackForTest
-    if PackForTest is None:
-        PackForTest = ti.types.argpack(count=ti.i32, a=ti.types.ndarray(ndim=1), b=ti.types.ndarray(ndim=1))
 
     @ti.kernel
     def probe(pack: PackForTest, out: ti.types.ndarray(ndim=1), scale: float, shift: ti.i32,
@@ -203,7 +199,6 @@ def test_the_shorter_launch_path_sets_what_taichis_own_sets():
     # same values reach the kernel, by position or by name, with a vector as a tuple or a
     # ti.Vector, NumPy values, a replaced pack member of another type, and a NumPy array
     # (which goes down Taichi's own path); Taichi's own errors for bad calls stay.
-    import taichi as ti
     from taichi.lang import kernel_impl
     from taichi.lang.exception import TaichiSyntaxError
 
