@@ -11,36 +11,63 @@ consecutive parallel loops of one kernel.
 
 import taichi as ti
 
-SCAN_BLOCK = 1024  # bins per block of the parallel prefix sum
+SCAN_BLOCK = 1024  # CPU: bins per block of the parallel prefix sum
+SCAN_BLOCK_GPU = 256  # GPU: shorter blocks, more threads (a GPU thread's serial chain is slow)
+
+
+def scan_block(arch: str) -> int:
+    """The prefix sum's block length for a Taichi arch ("cpu", "cuda", ...): see exclusive_scan."""
+    return SCAN_BLOCK if arch == "cpu" else SCAN_BLOCK_GPU
 
 
 def scan_blocks(n: int) -> int:
-    """The length of the `block_sums` array that `exclusive_scan` needs for n bins."""
-    return n // SCAN_BLOCK + 2
+    """The length of the `block_sums` array that `exclusive_scan` needs for up to n + 1 bins,
+    with either block length (the blocks' totals, then their groups' totals)."""
+    block = min(SCAN_BLOCK, SCAN_BLOCK_GPU)
+    blocks = n // block + 1
+    return blocks + blocks // block + 1
 
 
 @ti.func
-def exclusive_scan(counts: ti.template(), n, block_sums: ti.template(),
+def exclusive_scan(counts: ti.template(), n, block_sums: ti.template(), block: ti.template(),
                    # outputs
                    starts: ti.template()):
     """starts[k] = counts[0] + ... + counts[k - 1] for k = 0..n (starts[n] is the total), in
-    three phases: the block totals in parallel, a serial scan of the (few) block totals, then
-    each block's own scan in parallel from its offset. Integer sums: exact in any order."""
-    n_blocks = (n + SCAN_BLOCK - 1) // SCAN_BLOCK
+    parallel phases over blocks of `block` bins (a compile-time int, scan_block(arch)) and
+    groups of `block` blocks: the blocks' totals, the groups' totals, a scan of the (few)
+    groups' totals by one thread with the sum in a register, each block's offset within its
+    group, then each block's own scan from its offset. Integer sums: exact in any order.
+    (One group of 1,024-bin blocks spans a million bins: on the CPU the group phases are one
+    thread's short loop. On a GPU, 1,024-bin blocks and a serial scan of their totals through
+    memory took 0.67 ms of a 1M-particle bed's substep on an H200, the serial part 0.35 ms.)"""
+    n_blocks = (n + block - 1) // block
+    n_groups = (n_blocks + block - 1) // block
     for b in range(n_blocks):
         total = 0
-        for k in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, n)):
+        for k in range(b * block, ti.min((b + 1) * block, n)):
             total += counts[k]
         block_sums[b] = total
-    starts[n] = 0  # the running total
-    ti.loop_config(serialize=True)
-    for b in range(n_blocks):
-        total = block_sums[b]
-        block_sums[b] = starts[n]
-        starts[n] += total
+    for g in range(n_groups):
+        total = 0
+        for b in range(g * block, ti.min((g + 1) * block, n_blocks)):
+            total += block_sums[b]
+        block_sums[n_blocks + g] = total
+    for _ in range(1):  # one thread
+        running = 0
+        for g in range(n_groups):
+            total = block_sums[n_blocks + g]
+            block_sums[n_blocks + g] = running
+            running += total
+        starts[n] = running
+    for g in range(n_groups):
+        running = block_sums[n_blocks + g]
+        for b in range(g * block, ti.min((g + 1) * block, n_blocks)):
+            total = block_sums[b]
+            block_sums[b] = running
+            running += total
     for b in range(n_blocks):
         running = block_sums[b]
-        for k in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, n)):
+        for k in range(b * block, ti.min((b + 1) * block, n)):
             starts[k] = running
             running += counts[k]
 

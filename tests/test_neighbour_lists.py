@@ -1,5 +1,5 @@
 """Finding the pairs: the hash grid against brute force (negative coordinates, far
-outliers, forward lists, the prefix sum over many blocks), the store kept in cell order,
+outliers, forward lists, the prefix sum over many blocks and groups of blocks), the store kept in cell order,
 and Verlet lists (skin > 0) kept between substeps, for impulses and for DEM pairs."""
 
 import math
@@ -7,7 +7,10 @@ import math
 import numpy as np
 import pytest
 
+import taichi as ti
+
 import tai_coll as tc
+from tai_coll import sorting
 from tai_coll.neighbors import HashGrid
 from conftest import (add_box_of_planes, assert_stack_rests_in_contact, crowded_particle, grid_of, on_device,
                       pile_scene, spring_law_velocities)
@@ -133,9 +136,28 @@ def test_grid_entries_order_every_particle():
     assert all(np.all(status[lst] == 0) for lst in lists)
 
 
+@ti.kernel
+def scan_for_test(counts: ti.types.ndarray(), n: ti.i32, block: ti.template(), block_sums: ti.types.ndarray(),
+                  starts: ti.types.ndarray()):
+    sorting.exclusive_scan(counts, n, block_sums, block, starts)
+
+
+@pytest.mark.parametrize("block", [sorting.SCAN_BLOCK, sorting.SCAN_BLOCK_GPU])
+@pytest.mark.parametrize("n", [1, 255, 256, 257, 70_000, 1_100_001])
+def test_prefix_sum_over_blocks_and_groups_of_blocks(n, block):
+    # both block lengths (the CPU's and a GPU's) on any arch, across block and group edges: 70,000
+    # bins make 2 groups of GPU blocks, 1,100,001 make 2 groups of CPU blocks and 17 of GPU ones
+    rng = np.random.default_rng(n)
+    counts = rng.integers(0, 5, n).astype(np.int32)
+    counts[rng.integers(0, n, 3)] = 100_000  # large counts: the sums are exact integers
+    block_sums = np.full(sorting.scan_blocks(n - 1), -7, dtype=np.int32)
+    starts = np.full(n + 1, -7, dtype=np.int32)
+    scan_for_test(counts, n, block, block_sums, starts)
+    assert np.array_equal(starts, np.concatenate([[0], np.cumsum(counts)]))
+
+
 def test_grid_sort_on_a_table_of_many_scan_blocks():
-    # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum (its serial middle
-    # phase included). starts is the exclusive prefix sum of counts, each bucket's entries are
+    # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum. starts is the exclusive prefix sum of counts, each bucket's entries are
     # its particles in increasing order, and sorted_xr holds their positions and radii.
     from tai_coll.sorting import SCAN_BLOCK
 

@@ -5,7 +5,7 @@ particles are in contact (issue 23). Warp (`warp-lang`) is a benchmark-only extr
     python tools/bench_warp.py                         # both rows: a 1M layer, a 100k bed (CPU)
     python tools/bench_warp.py --rows bed --bed-particles 20000 --warp-variants impulse
     python tools/bench_warp.py --arch cuda --layer-particles 1000000,10000000 --layer-frames 100 \
-        --bed-particles 1000000,10000000                 # the GPU rows, each size in turn
+        --bed-particles 1000000,10000000 --pair-methods gauss-seidel,jacobi    # the GPU rows
 
 Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second):
 - layer: N particles at rest in a layer 0 to 2 cm above a floor plane, 10 substeps a frame.
@@ -14,11 +14,13 @@ Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second)
   normal velocity and Coulomb friction on the tangential one (the same 1-D impulse law).
 - bed: 100,000 particles on a jittered lattice 2.2 r apart, 6 layers deep, in a box (floor
   and four walls); 300 steps to settle, then 100 timed. tai_coll: enable_particle_collisions()
-  (Gauss-Seidel impulses, the default). Warp: three solvers of the same bed, the script's own
-  kernels (--warp-variants, default all). Each step of each: one `wp.HashGrid` build and one
-  gather (a query per particle) into half lists (planes within the skin, particles j > i
-  within 2 r + skin: every pair computed once, its result added to both particles), then
-  passes over the lists; launches only, nothing read back inside the timed loop.
+  (Gauss-Seidel impulses, the default; --pair-methods adds method="jacobi", and a count of
+  passes: jacobi:2:10 is 2 contact and 10 projection passes). Warp: three
+  solvers of the same bed, the script's own kernels (--warp-variants, default all). Each step
+  of each: one `wp.HashGrid` build and one gather (a query per particle) into half lists
+  (planes within the skin, particles j > i within 2 r + skin: every pair computed once, its
+  result added to both particles), then passes over the lists; launches only, nothing read
+  back inside the timed loop.
   - pbd: position-based Jacobi: predict; 4 passes, each moving a particle by 1.5 (SOR) times
     the mean of its pairs' corrections (half the overlap; positional Coulomb friction: the
     relative tangential move undone up to mu times the overlap), then out of the planes; the
@@ -107,7 +109,19 @@ def tai_coll_layer(n: int, frames: int) -> dict:
             "state_bytes_per_particle": scene.state_nbytes() / n}
 
 
-def tai_coll_bed(n: int, settle: int, timed: int) -> dict:
+def pair_options(spec: str) -> dict:
+    """enable_particle_collisions options from a --pair-methods entry: "gauss-seidel",
+    "jacobi", or either with its contact and projection passes, "jacobi:2:10"."""
+    method, *passes = spec.split(":")
+    if method not in ("gauss-seidel", "jacobi") or len(passes) not in (0, 2) or \
+            not all(p.isdigit() and int(p) > 0 for p in passes):
+        raise ValueError(f"a pair method is gauss-seidel or jacobi, optionally :contact:projection passes "
+                         f"(jacobi:2:10); got {spec!r}")
+    return {"method": method, **({"iterations": int(passes[0]), "projection_iterations": int(passes[1])}
+                                 if passes else {})}
+
+
+def tai_coll_bed(n: int, settle: int, timed: int, method: str = "gauss-seidel") -> dict:
     x, width = bed_positions(n)
     scene = tc.Scene(dt=DT, substeps=SUBSTEPS)
     wall = tc.Material(restitution=E, friction=MU)
@@ -115,7 +129,7 @@ def tai_coll_bed(n: int, settle: int, timed: int) -> dict:
                           ((0, 0, 0), (0, 0, 1)), ((0, 0, width), (0, 0, -1))):
         scene.add_collider(tc.Plane(point=point, normal=normal), material=wall)
     scene.add_particles(positions=x, radius=R)
-    scene.enable_particle_collisions(material=tc.Material(restitution=E, friction=MU))
+    scene.enable_particle_collisions(material=tc.Material(restitution=E, friction=MU), **pair_options(method))
     scene.step(settle // SUBSTEPS)
     ti.sync()
     t0, c0 = time.perf_counter(), time.process_time()
@@ -701,11 +715,12 @@ WARP_NOTES = {
 }
 
 
-def bed_row(n: int, ours: dict, theirs: dict) -> dict:
-    """The bed's JSON row: every Warp variant's figures and tai_coll's ratio to each, and to the
-    fastest of them (Warp's best; the overlaps stand beside the rates, not in the choice)."""
+def bed_row(n: int, method: str, ours: dict, theirs: dict) -> dict:
+    """The bed's JSON row for one of tai_coll's pass methods: every Warp variant's figures and
+    tai_coll's ratio to each, and to the fastest of them (Warp's best; the overlaps stand beside
+    the rates, not in the choice)."""
     best = max(theirs, key=lambda k: theirs[k]["rate"])
-    return {"row": "bed", "particles": n, "tai_coll": ours, "warp": theirs,
+    return {"row": "bed", "particles": n, "method": method, "tai_coll": ours, "warp": theirs,
             "ratio": {k: ours["rate"] / t["rate"] for k, t in theirs.items()},
             "warp_best": best, "ratio_to_best": ours["rate"] / theirs[best]["rate"]}
 
@@ -730,8 +745,13 @@ def print_table(rows: list, header: str) -> None:
             line("", "", "warp", r["warp"], r["ratio"], f"one kernel a step; lowest centre "
                  f"{r['warp']['lowest'] * 1e3:.3f} mm")
             continue
+        method = pair_options(r["method"])
+        passes = (f", {method['iterations']} contact and {method['projection_iterations']} projection passes"
+                  if "iterations" in method else "")
+        name = {"gauss-seidel": "Gauss-Seidel impulses", "jacobi": "Jacobi impulses"}[method["method"]]
         line("bed", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
-             f"Gauss-Seidel impulses (default); {r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
+             f"{name}{passes}{' (default)' if r['method'] == 'gauss-seidel' else ''}; "
+             f"{r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
         for k, res in r["warp"].items():
             notes = WARP_NOTES[k]() + (f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
             line("", "", k, res, r["ratio"][k], notes)
@@ -761,6 +781,9 @@ def main(argv=None):
     parser.add_argument("--timed", type=int, default=100, help="bed: steps timed (default 100)")
     parser.add_argument("--warp-variants", default=",".join(WARP_VARIANTS),
                         help="bed: Warp's solvers, any of pbd,impulse,dem (default all three)")
+    parser.add_argument("--pair-methods", default="gauss-seidel",
+                        help="bed: tai_coll's pass methods, any of gauss-seidel,jacobi, each optionally with its "
+                             "contact and projection passes (jacobi:2:10); default gauss-seidel")
     parser.add_argument("--arch", default="cpu")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
@@ -769,6 +792,14 @@ def main(argv=None):
     unknown = sorted(set(variants) - set(WARP_VARIANTS))
     if unknown or not variants:
         parser.error(f"--warp-variants: choose from {','.join(WARP_VARIANTS)}; got {args.warp_variants!r}")
+    methods = [m for m in args.pair_methods.split(",") if m]
+    try:
+        if not methods:
+            raise ValueError("give at least one")
+        for m in methods:
+            pair_options(m)
+    except ValueError as error:
+        parser.error(f"--pair-methods: {error}")
     try:
         import warp as wp
     except ImportError:
@@ -797,8 +828,10 @@ def main(argv=None):
                   "ratio": ours["rate"] / theirs["rate"]})
     if "bed" in wanted:
         for n in args.bed_particles:
-            ours = tai_coll_bed(n, args.settle, args.timed)
-            done(bed_row(n, ours, {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}))
+            ours = {m: tai_coll_bed(n, args.settle, args.timed, m) for m in methods}
+            theirs = {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}
+            for m in methods:
+                done(bed_row(n, m, ours[m], theirs))
     print_table(rows, f"tai_coll {tc.__version__} ({args.arch}, {args.threads if args.arch == 'cpu' else ''} "
                       f"threads) against Warp {wp.__version__} ({device}), f32, dt {DT:.4g} s; steps/s: "
                       f"particle-steps per second (bed: steps of dt; overlap: mean of touching pairs)")

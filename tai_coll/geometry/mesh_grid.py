@@ -318,6 +318,7 @@ def _triangle_cells(verts: ti.template(), tris: ti.template(), t, origin: vec3, 
 
 @ti.kernel
 def _count_and_scan(verts: ti.types.ndarray(), tris: ti.types.ndarray(), origin: vec3, h: float, dims: ivec3,
+                    scan_block: ti.template(),
                     # outputs
                     counts: ti.types.ndarray(), block_sums: ti.types.ndarray(), starts: ti.types.ndarray(),
                     cursor: ti.types.ndarray()):
@@ -329,7 +330,7 @@ def _count_and_scan(verts: ti.types.ndarray(), tris: ti.types.ndarray(), origin:
             for j in range(first.y, last.y + 1):
                 for k in range(first.z, last.z + 1):
                     ti.atomic_add(counts[(i * dims.y + j) * dims.z + k], 1)
-    sorting.exclusive_scan(counts, counts.shape[0], block_sums, starts)
+    sorting.exclusive_scan(counts, counts.shape[0], block_sums, scan_block, starts)
     for cell in range(counts.shape[0]):
         cursor[cell] = starts[cell]
 
@@ -362,7 +363,8 @@ def bin_triangles(vertices: np.ndarray, triangles: np.ndarray, origin: np.ndarra
     block_sums = np.zeros(sorting.scan_blocks(n_cells), dtype=np.int32)
     starts = np.zeros(n_cells + 1, dtype=np.int32)
     cursor = np.zeros(n_cells, dtype=np.int32)
-    _count_and_scan(vertices, triangles, origin_t, float(h), dims_t, counts, block_sums, starts, cursor)
+    _count_and_scan(vertices, triangles, origin_t, float(h), dims_t, sorting.scan_block(runtime.info().arch), counts,
+                    block_sums, starts, cursor)
     ids = np.zeros(max(int(starts[-1]), 1), dtype=np.int32)
     _fill_and_sort(vertices, triangles, origin_t, float(h), dims_t, starts, cursor, ids)
     return starts, ids[: int(starts[-1])]

@@ -155,12 +155,13 @@ def table_bits(extent, total_bits: int) -> tuple:
 
 @ti.kernel
 def _sort(x: ARRAY, radius: ARRAY, flags: ARRAY, n: ti.i32, inv_cell: float, n_buckets: ti.i32, bits: ivec3,
+          scan_block: ti.template(),
           # outputs
           bucket: ARRAY, rank: ARRAY, counts: ARRAY, block_sums: ARRAY, starts: ARRAY, entries: ARRAY,
           sorted_xr: ARRAY):
     """The counting sort in one launch: its steps' parallel loops run one after the other."""
     count_step(x, flags, n, inv_cell, n_buckets, bits, bucket, rank, counts)
-    sorting.exclusive_scan(counts, n_buckets + 1, block_sums, starts)
+    sorting.exclusive_scan(counts, n_buckets + 1, block_sums, scan_block, starts)
     scatter_step(bucket, rank, starts, n, entries)
     sorting.sort_bins(starts, n_buckets + 1, entries)
     gather_step(x, radius, entries, starts, n_buckets, sorted_xr)
@@ -374,8 +375,9 @@ class HashGrid:
             self.bits = bits
             self._args = None
         _sort(x=x, radius=radius, flags=flags, n=n, inv_cell=self.inv_cell, n_buckets=self.n_buckets, bits=self.bits,
-              bucket=self.bucket, rank=self.rank, counts=self.counts, block_sums=self.block_sums, starts=self.starts,
-              entries=self.entries, sorted_xr=self.sorted_xr)
+              scan_block=sorting.scan_block(runtime.info().arch), bucket=self.bucket, rank=self.rank,
+              counts=self.counts, block_sums=self.block_sums, starts=self.starts, entries=self.entries,
+              sorted_xr=self.sorted_xr)
 
     def _extent(self, x, flags, n: int):
         """How many cells the active particles span along each axis (None: none active)."""

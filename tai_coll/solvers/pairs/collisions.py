@@ -68,6 +68,12 @@ BY_RADIUS_RATIO = 2.0
 
 
 @runtime.bound_to_runtime
+def reads_pass_flags() -> bool:
+    """Whether the impulse passes read back if they changed anything and stop early: on the
+    CPU, where a read is cheap; not on a GPU (ParticleCollisions._passed)."""
+    return runtime.info().arch == "cpu"
+
+
 class ParticleCollisions:
     """Particle-particle collisions of a scene (Scene.enable_particle_collisions returns it).
     Its arrays belong to the Taichi runtime it was built in: after tc.init restarts Taichi,
@@ -376,8 +382,12 @@ class ParticleCollisions:
 
     def _passed(self) -> bool:
         """Whether the last pass had anything to do; a Jacobi pass that did passes its contact
-        counts on to the next (see jacobi.pair_share)."""
-        changed = self._changed()
+        counts on to the next (see jacobi.pair_share). On a GPU the flag is not read and the
+        passes run their full count: a read waits for every kernel launched before it, so the
+        host could never launch ahead of the GPU (on an H200, 1M-particle bed: Jacobi passes
+        80 ms a frame with the reads, 36 without; Gauss-Seidel 105 and 79). A pass after one
+        that found nothing to do finds nothing either, and leaves the state as it was."""
+        changed = self._changed() if reads_pass_flags() else True
         if changed and self.settings.method == "jacobi":
             self._counts.reverse()
         return changed
