@@ -67,13 +67,13 @@ REORDER_INTERVAL = 8
 BY_RADIUS_RATIO = 2.0
 
 
-@runtime.bound_to_runtime
 def reads_pass_flags() -> bool:
     """Whether the impulse passes read back if they changed anything and stop early: on the
     CPU, where a read is cheap; not on a GPU (ParticleCollisions._passed)."""
     return runtime.info().arch == "cpu"
 
 
+@runtime.bound_to_runtime
 class ParticleCollisions:
     """Particle-particle collisions of a scene (Scene.enable_particle_collisions returns it).
     Its arrays belong to the Taichi runtime it was built in: after tc.init restarts Taichi,
