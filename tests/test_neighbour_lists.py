@@ -1,6 +1,7 @@
 """Finding the pairs: the hash grid against brute force (negative coordinates, far
-outliers, forward lists, the prefix sum over many blocks and groups of blocks), the store kept in cell order,
-and Verlet lists (skin > 0) kept between substeps, for impulses and for DEM pairs."""
+outliers, forward lists, the prefix sum over many blocks and groups of blocks), the store
+kept in cell order, and Verlet lists (skin > 0) kept between substeps, for impulses and for
+DEM pairs."""
 
 import math
 
@@ -157,8 +158,9 @@ def test_prefix_sum_over_blocks_and_groups_of_blocks(n, block):
 
 
 def test_grid_sort_on_a_table_of_many_scan_blocks():
-    # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum. starts is the exclusive prefix sum of counts, each bucket's entries are
-    # its particles in increasing order, and sorted_xr holds their positions and radii.
+    # 20,000 particles: a table of 2^16 buckets, 64 blocks of the prefix sum. starts is the
+    # exclusive prefix sum of counts, each bucket's entries are its particles in increasing
+    # order, and sorted_xr holds their positions and radii.
     from tai_coll.sorting import SCAN_BLOCK
 
     rng = np.random.default_rng(5)

@@ -15,12 +15,12 @@ Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second)
 - bed: 100,000 particles on a jittered lattice 2.2 r apart, 6 layers deep, in a box (floor
   and four walls); 300 steps to settle, then 100 timed. tai_coll: enable_particle_collisions()
   (Gauss-Seidel impulses, the default; --pair-methods adds method="jacobi", and a count of
-  passes: jacobi:2:10 is 2 contact and 10 projection passes). Warp: three
-  solvers of the same bed, the script's own kernels (--warp-variants, default all). Each step
-  of each: one `wp.HashGrid` build and one gather (a query per particle) into half lists
-  (planes within the skin, particles j > i within 2 r + skin: every pair computed once, its
-  result added to both particles), then passes over the lists; launches only, nothing read
-  back inside the timed loop.
+  passes: jacobi:2:10 is 2 contact and 10 projection passes). Warp: three solvers of the same
+  bed, the script's own kernels (--warp-variants, default all). Each step of each: one
+  `wp.HashGrid` build and one gather (a query per particle) into half lists (planes within the
+  skin, particles j > i within 2 r + skin: every pair computed once, its result added to both
+  particles), then passes over the lists; launches only, nothing read back inside the timed
+  loop.
   - pbd: position-based Jacobi: predict; 4 passes, each moving a particle by 1.5 (SOR) times
     the mean of its pairs' corrections (half the overlap; positional Coulomb friction: the
     relative tangential move undone up to mu times the overlap), then out of the planes; the
