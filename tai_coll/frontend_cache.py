@@ -11,7 +11,10 @@ substep made 94,573 such messages and 2,047 source reads: together about 60 % of
 Taichi spent turning its kernels into IR (the part of a first launch that Taichi's offline
 cache of compiled kernels does not skip).
 
-`install()` memoises the two in Taichi's own modules (it replaces the module attributes its
+It also runs every source line through `textwrap.fill` and the function through
+`textwrap.dedent` at each call site: pure functions of the text, memoised likewise.
+
+`install()` memoises these in Taichi's own modules (it replaces the module attributes its
 frontend calls; nothing else changes): the same strings, made once per source position. It
 does so only for the Taichi versions it was written against (1.7), whose frontend it has
 checked; anywhere else it leaves Taichi alone. TAI_COLL_FRONTEND_CACHE=0 leaves it off.
@@ -70,6 +73,7 @@ def install() -> bool:
         from taichi.lang.ast import ast_transformer_utils
         context = ast_transformer_utils.ASTTransformerContext
         originals = (kernel_impl.getsourcelines, kernel_impl.getsourcefile, context.get_pos_info)
+        wrap = kernel_impl.textwrap
     except (ImportError, AttributeError):
         return False
     read_lines, read_file, position = originals
@@ -97,6 +101,16 @@ def install() -> bool:
             message = messages[key] = position(self, node)
         return message
 
+    class SourceText:
+        """What Taichi's frontend uses of `textwrap`, memoised: it runs every source line of
+        a function through `fill` (tabs expanded), and then `dedent`, at every call site."""
+        fill = staticmethod(functools.lru_cache(maxsize=MAX_MESSAGES)(wrap.fill))
+        dedent = staticmethod(functools.lru_cache(maxsize=4096)(wrap.dedent))
+
+        def __getattr__(self, name):
+            return getattr(wrap, name)
+
+    kernel_impl.textwrap = SourceText()
     kernel_impl.getsourcelines = getsourcelines
     kernel_impl.getsourcefile = functools.cache(read_file)
     context.get_pos_info = get_pos_info

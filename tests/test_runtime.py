@@ -110,7 +110,15 @@ def test_taichis_frontend_memos_leave_its_error_messages_as_they_were(tmp_path):
 
     from tai_coll import frontend_cache
 
-    assert frontend_cache.install() and kernel_impl.getsourcelines.__module__ == "tai_coll.frontend_cache"
+    # (in this process the memos are on unless the environment turned them off; the two probes
+    # below set their own)
+    installed = frontend_cache.install()
+    assert installed == frontend_cache.may_patch("TAI_COLL_FRONTEND_CACHE")
+    assert (kernel_impl.getsourcelines.__module__ == "tai_coll.frontend_cache") == installed
+    import textwrap
+    line = "\tif a:\t # a tab, then   spaces  "  # (the source lines' fill and dedent: the same text)
+    assert kernel_impl.textwrap.fill(line, tabsize=4, width=9999) == textwrap.fill(line, tabsize=4, width=9999)
+    assert kernel_impl.textwrap.dedent("  a\n   b") == "a\n b"
     probe = tmp_path / "probe.py"
     probe.write_text(FRONTEND_PROBE)
     outputs = {}
