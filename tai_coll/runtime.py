@@ -12,6 +12,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import inspect
+import math
 import numbers
 import os
 import platform
@@ -168,6 +169,33 @@ def info() -> RuntimeInfo | None:
 def float_dtype():
     """The numpy dtype matching Taichi's default float."""
     return ensure_init().float_dtype
+
+
+def read_small(array, count: int | None = None) -> np.ndarray:
+    """A NumPy copy of the first `count` entries (None: all) of a Taichi array of scalars,
+    for the host's small reads between kernels (a flag, a bound, a largest value).
+
+    On the CPU it is copied straight from the array's memory: Taichi's CPU launches return
+    when their kernel has run, and Taichi's own `to_numpy` launches a copy kernel, about 0.1 to
+    0.2 ms a read on the EPYC of docs/benchmarks.md, against some 6 us (docs/design-notes.md,
+    "Small reads"). Elsewhere, and for arrays of vectors, it is `to_numpy`."""
+    place = array.__dict__.get("_tc_place")  # (address, dtype, size): fixed for the array's life
+    if place is None:
+        place = False
+        if ensure_init().arch == "cpu" and not array.arr.element_shape():
+            from taichi.lang import impl
+            from taichi.lang.util import to_numpy_type
+
+            place = (impl.get_runtime().prog.get_ndarray_data_ptr_as_int(array.arr),
+                     np.dtype(to_numpy_type(array.dtype)), math.prod(array.shape))
+        array._tc_place = place
+    if not place:
+        found = array.to_numpy().reshape(-1)
+        return found[:count].copy() if count is not None else found
+    address, dtype, size = place
+    count = size if count is None else max(0, min(int(count), size))
+    ti.sync()  # (a CPU launch has finished when it returns; as Taichi's own reads do)
+    return np.frombuffer(ctypes.string_at(address, count * dtype.itemsize), dtype=dtype).copy()
 
 
 def check_generation(generation: int, what: str = "this object") -> None:

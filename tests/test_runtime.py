@@ -306,3 +306,24 @@ def test_the_shorter_launch_path_gives_a_pile_the_same_bits():
         for name, (owner, attribute) in replaced.items():
             setattr(owner, attribute, saved[name])
     assert all(np.array_equal(a, b) for a, b in zip(mine, theirs))
+
+
+def test_small_reads_give_what_to_numpy_gives():
+    # runtime.read_small: the host's reads between kernels (a pass's flag, the particles'
+    # cell bounds, the largest speed), on the CPU straight from the array's memory
+    from tai_coll import runtime
+
+    for dtype, values in ((ti.i32, [3, -7, 2**31 - 1, -2**31, 0, 5]), (ti.u8, [0, 255, 3, 4, 5, 6]),
+                          (ti.f32, [1.5, -2.25, 3e38, 0.0, 1.0, 2.0]), (ti.f64, [1e-300, -2.5, 7.0, 8.0, 9.0, 1e300])):
+        array = ti.ndarray(dtype, shape=6)
+        array.from_numpy(np.array(values, dtype=array.to_numpy().dtype))
+        for _ in range(2):  # (the second read uses the place kept on the array)
+            expected = array.to_numpy()
+            assert np.array_equal(runtime.read_small(array), expected) and runtime.read_small(array).dtype == expected.dtype
+            assert np.array_equal(runtime.read_small(array, 1), expected[:1])
+            assert runtime.read_small(array, 0).shape == (0,) and np.array_equal(runtime.read_small(array, 99), expected)
+        array.from_numpy(np.zeros(6, dtype=array.to_numpy().dtype))  # a write between reads is seen
+        assert not runtime.read_small(array).any()
+    vectors = ti.Vector.ndarray(3, ti.f64, shape=2)  # (not scalars: read by to_numpy)
+    vectors.from_numpy(np.arange(6.0).reshape(2, 3))
+    assert np.array_equal(runtime.read_small(vectors), np.arange(6.0))

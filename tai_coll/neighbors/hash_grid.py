@@ -123,7 +123,7 @@ def cell_span(x, flags, n: int, inv_cell: float, bounds, interleaved: bool):
     blocks = (n + BOUND_SHARE_GPU - 1) // BOUND_SHARE_GPU if interleaved else BOUND_BLOCKS
     _cell_bounds(x=x, flags=flags, n=n, inv_cell=inv_cell, blocks=max(blocks, 1), interleaved=interleaved,
                  bounds=bounds)
-    found = bounds.to_numpy()
+    found = runtime.read_small(bounds)
     lo, hi = found[:3], found[3:]
     return None if np.any(hi < lo) else (lo, hi)
 

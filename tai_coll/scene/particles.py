@@ -13,6 +13,7 @@ one argument pack (`args`, types.ParticleArgs)."""
 import numpy as np
 import taichi as ti
 
+from .. import runtime
 from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs, new_ndarray
 
 #: Ids are kept as int32 on the device (the DEM springs find their partners by id): a store
@@ -402,7 +403,7 @@ class ParticleStore:
             self._largest = ti.ndarray(float, shape=1)
         self._largest.fill(0)
         _max_speed_sq(self.count, self.v, self.flags, self._largest)
-        return float(self._largest[0]) ** 0.5
+        return float(runtime.read_small(self._largest, 1)[0]) ** 0.5
 
     def collect_stats(self) -> dict:
         """Move the kernels' event counts into `totals`; returns the counts just collected."""

@@ -378,7 +378,7 @@ class ParticleCollisions:
 
     def _changed(self) -> bool:
         """Whether the last pass (or check of the lists) had anything to do (a read from the device)."""
-        return bool(self.changed[0])
+        return bool(runtime.read_small(self.changed, 1)[0])
 
     def _passed(self) -> bool:
         """Whether the last pass had anything to do; a Jacobi pass that did passes its contact
