@@ -183,6 +183,48 @@ def test_passes_run_to_their_count_unread_give_the_same_state(method, monkeypatc
     assert reads.count(True) >= 5 * 40 and reads.count(False) == 0, (reads.count(True), reads.count(False))
 
 
+@pytest.mark.parametrize("options", [{}, {"verlet_skin": 0.004}], ids=["lists-each-substep", "kept-lists"])
+def test_passes_over_lists_without_pairs_are_skipped_to_the_same_state(options, monkeypatch):
+    # Gauss-Seidel passes over lists that hold no pair change nothing, so where the pass flags
+    # are read (the CPU) they are not launched. Columns of particles falling onto a floor, each
+    # particle apart from the others until the upper ones land on the lower (pairs appear),
+    # with sleeping on, end where passes launched every substep take them.
+    from tai_coll.neighbors import hash_grid
+    from tai_coll.solvers.pairs import collisions, gauss_seidel
+
+    real_pass, real_listed = gauss_seidel._pass, hash_grid.HashGrid.listed_any
+    launches, listed = [], []
+    monkeypatch.setattr(gauss_seidel, "_pass", lambda **kw: launches.append(1) or real_pass(**kw))
+    monkeypatch.setattr(hash_grid.HashGrid, "listed_any",
+                        lambda self: listed.append(real_listed(self)) or listed[-1])
+
+    def columns(skip):
+        if not skip:
+            monkeypatch.setattr(hash_grid.HashGrid, "listed_any", lambda self: True)
+        launches.clear()
+        # (short substeps: the elastic pass of a particle without pairs once left round-off on
+        # its velocity here, fast math reordering v1 + (vi - v_test))
+        scene = tc.Scene(dt=1e-4, substeps=10)
+        scene.add_collider(tc.Plane(), material=tc.Material(restitution=0.6, friction=0.4))
+        scene.enable_particle_collisions(material=tc.Material(restitution=0.2, friction=0.4), sleep_time=0.05,
+                                         **options)
+        r = 0.005
+        lows = [[x, r + 0.002 * k, 0.0] for k, x in enumerate((0.0, 0.05, 0.1))]
+        highs = [[x, 0.03 + 0.01 * k, 0.0] for k, x in enumerate((0.0, 0.05, 0.1))]
+        lone = [[0.3, 0.2 + r, 0.0]]  # (falling alone throughout)
+        scene.add_particles(positions=lows + highs + lone, radius=r)
+        scene.step(120)
+        return scene.positions(), scene.velocities(), scene.sleeping(), len(launches)
+
+    x_skip, v_skip, asleep_skip, skipped = columns(skip=True)
+    assert True in listed and False in listed  # (apart at first, touching once the upper ones land)
+    x_all, v_all, asleep_all, every = columns(skip=False)
+    assert np.array_equal(x_skip, x_all) and np.array_equal(v_skip, v_all) and np.array_equal(asleep_skip, asleep_all)
+    assert np.all(x_skip[3:6, 1] > x_skip[:3, 1] + 1.9 * 0.005)  # (each upper particle rests on its lower one)
+    if collisions.reads_pass_flags():
+        assert skipped < every, (skipped, every)
+
+
 @pytest.mark.parametrize("ground", ["height_field", "triangle_mesh", "mesh_sdf"])
 def test_pile_on_terrain_and_meshes_stays_outside(ground):
     # Particle-particle collisions together with the other collider kinds: a small heap

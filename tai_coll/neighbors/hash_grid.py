@@ -239,11 +239,13 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, forward: 
 def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, margin_radii: float,
                 forward: ti.template(), local: ti.template(),
                 # outputs
-                lists: ListArgs, touching: ARRAY, overflow: ARRAY):
+                lists: ListArgs, touching: ARRAY, overflow: ARRAY, listed: ARRAY):
     """Each particle's neighbours within r_i + r_j + margin + margin_radii min(r_i, r_j)
     (forward: FORWARD_SORTED, only those after it in the sorted entries; FORWARD_RADIUS, only
     those larger than it or, of equal radius, after it), and how many of them touch it.
-    local: the CPU's way of collecting them (see _scan_row)."""
+    local: the CPU's way of collecting them (see _scan_row). listed[0]: whether any particle
+    listed a neighbour."""
+    listed[0] = 0
     # One particle per iteration, visited in bucket order (its own data and the cells
     # around it were just read by its bucket neighbours).
     for slot in range(grid.starts[grid.n_buckets]):
@@ -269,6 +271,8 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
                 lists.neighbours[i, q] = grid.entries[kept[q]]
         lists.neighbour_count[i] = found
         touching[i] = touch
+        if found > 0 and listed[0] == 0:
+            listed[0] = 1  # (read first: one shared line, written once)
     for i in range(n):
         if flags[i] != ACTIVE:
             lists.neighbour_count[i] = 0
@@ -290,6 +294,8 @@ class HashGrid:
         self.inv_cell = 1.0  # 1 / cell size of the last sort
         self.overflow = ti.ndarray(ti.i32, shape=1)
         self.overflow.fill(0)
+        self.listed = ti.ndarray(ti.i32, shape=1)  # whether the last build listed any pair
+        self.listed.fill(1)
         self._bounds = None  # a work array of _cell_bounds (see _extent)
         self._args = self._lists = None  # the argument packs (see args, lists)
 
@@ -360,7 +366,7 @@ class HashGrid:
         mode = (FORWARD_RADIUS if by_radius else FORWARD_SORTED) if forward else FULL
         _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin,
                     margin_radii=margin_radii, forward=mode, local=runtime.info().arch == "cpu", lists=self.lists,
-                    touching=self.touching, overflow=self.overflow)
+                    touching=self.touching, overflow=self.overflow, listed=self.listed)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
@@ -401,6 +407,10 @@ class HashGrid:
             bounds = np.searchsorted(listed[back], np.arange(n + 1))
             lists = [np.concatenate([lists[i], owner[back[bounds[i]:bounds[i + 1]]]]) for i in range(n)]
         return [np.sort(row) for row in lists]
+
+    def listed_any(self) -> bool:
+        """Whether the last build listed any pair (a read from the device)."""
+        return bool(runtime.read_small(self.listed, 1)[0])
 
     def dropped(self) -> int:
         """Neighbours left out of full lists by every build so far (a read from the device)."""

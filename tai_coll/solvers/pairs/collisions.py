@@ -94,6 +94,7 @@ class ParticleCollisions:
         self._since_reorder = REORDER_INTERVAL  # lists built since the store was last reordered
         self._sorted_key = None  # the store's (edits, count) when the grid last sorted it
         self._latest_counts = None  # the array with the latest per-particle contact counts (Jacobi)
+        self._pairs = True  # whether this substep's lists hold any pair (see impulse_substep)
         self._dem_dropped = 0  # neighbours the DEM lists left out (the grid's queries found them)
         self._law = None  # (key, the DEM law's argument pack)
         self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
@@ -212,6 +213,9 @@ class ParticleCollisions:
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         #    (and v(t) into v_start, x(t) into delta while particles may sleep: see 3.)
         contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max), sleep)
+        # Gauss-Seidel passes over lists that hold no pair would change nothing: where the
+        # flags are read (the CPU), the passes are skipped then (a lone particle, a sparse rain)
+        self._pairs = settings.method != "gauss-seidel" or not reads_pass_flags() or self.grid.listed_any()
         self._counts = [contacts, self.contacts if contacts is not self.contacts else self.grid.touching]
         # A body lying on particles held by what they rest on is stopped by them in this
         # substep's collider passes (shock propagation, docs/physics.md 7.2), where it meets
@@ -258,8 +262,9 @@ class ParticleCollisions:
             # a last velocity pass at the final positions: without it, particles jammed deep in
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
-            gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
-                                     self.changed, self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels)
+            if self._pairs:
+                gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
+                                         self.changed, self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels)
         # 6. colliders last, and the new state
         solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
         if support:
@@ -346,6 +351,8 @@ class ParticleCollisions:
         """One velocity pass (elastic: on v(t), else a contact pass on the candidates' velocities;
         wake_speed: m/s, see sleeping.wakes; None while nobody sleeps); returns whether any pair
         approached."""
+        if not self._pairs:
+            return False  # (no pair listed: see impulse_substep)
         v_test = self.v_start if elastic else self.v1  # the velocities the law acts on
         if self.settings.method == "gauss-seidel":
             # the elastic pass is not over-relaxed: an isolated pair bounces with e exactly
@@ -363,6 +370,8 @@ class ParticleCollisions:
     def _projection_pass(self, particles, dt: float, placed: bool, push_distance: float) -> bool:
         """One projection pass; placed: overlap allowances are left, and up to push_distance (m)
         of them goes by positions only. Returns whether any pair had overlap to remove."""
+        if not self._pairs:
+            return False  # (no pair listed: see impulse_substep)
         if self.settings.method == "gauss-seidel":
             gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, self.settings.relaxation, dt,
                                          placed, push_distance, self.changed, self.x1, self.v1,

@@ -142,6 +142,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     x_start = vec3(0.0)  # projection of placed particles: i's start position
                     allowance_i = 0.0  # ... and its overlap allowance
                     grown = 0.0  # ... and what it grows by in this pass
+                    own = 0  # elastic: whether i's own pairs changed its velocity in this pass
                     asleep_i = 0
                     if ti.static(sleep):
                         asleep_i = ti.cast(is_asleep(particles, i), ti.i32)
@@ -209,6 +210,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                                     vj = v_test[j] - wj * change
                                     v_test[j] = vj
                                     if ti.static(mode == ELASTIC):
+                                        own = 1
                                         v1[j] = v1[j] - wj * change
                                         x1[j] = xj - (dt * wj) * change
                                         xi += (dt * wi) * change
@@ -221,8 +223,11 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                         if ti.static(placed):
                             particles.allowance[i] = particles.allowance[i] + grown
                     elif ti.static(mode == ELASTIC):
-                        v1[i] = v1[i] + (vi - v_test[i])
-                        v_test[i] = vi
+                        if own != 0:
+                            # (only then: with fast math the compiler may reorder v1 + (vi - v_test)
+                            # and leave round-off on a particle whose pairs did nothing)
+                            v1[i] = v1[i] + (vi - v_test[i])
+                            v_test[i] = vi
                     else:
                         v_test[i] = vi
             if found != 0 and changed[0] == 0:
