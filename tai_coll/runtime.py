@@ -175,11 +175,12 @@ def read_small(array, count: int | None = None) -> np.ndarray:
     """A NumPy copy of the first `count` entries (None: all) of a Taichi array of scalars,
     for the host's small reads between kernels (a flag, a bound, a largest value).
 
-    On the CPU it is copied straight from the array's memory: Taichi's CPU launches return
-    when their kernel has run, and Taichi's own `to_numpy` launches a copy kernel, about 0.1 to
-    0.2 ms a read on the EPYC of docs/benchmarks.md, against some 6 us (docs/design-notes.md,
-    "Small reads"). Elsewhere, and for arrays of vectors, it is `to_numpy`."""
-    place = array.__dict__.get("_tc_place")  # (address, dtype, size): fixed for the array's life
+    On the CPU it is copied straight from the array's memory, about 11 us a read on the EPYC
+    of docs/benchmarks.md, where Taichi's own `to_numpy` launches a copy kernel (0.1 to
+    0.25 ms) and its host accessor takes about 20 us for one entry (docs/design-notes.md,
+    "Where the suite's time goes, small reads, empty lists"). Elsewhere, and for arrays of
+    vectors, it is `to_numpy`."""
+    place = array.__dict__.get("_tc_place")  # (address, dtype): fixed for the array's life
     if place is None:
         place = False
         if ensure_init().arch == "cpu" and not array.arr.element_shape():
@@ -187,14 +188,15 @@ def read_small(array, count: int | None = None) -> np.ndarray:
             from taichi.lang.util import to_numpy_type
 
             place = (impl.get_runtime().prog.get_ndarray_data_ptr_as_int(array.arr),
-                     np.dtype(to_numpy_type(array.dtype)), math.prod(array.shape))
+                     np.dtype(to_numpy_type(array.dtype)))
         array._tc_place = place
-    if not place:
-        found = array.to_numpy().reshape(-1)
-        return found[:count].copy() if count is not None else found
-    address, dtype, size = place
+    found = None if place else array.to_numpy().reshape(-1)  # (vectors: their entries, flattened)
+    size = math.prod(array.shape) if place else found.size
     count = size if count is None else max(0, min(int(count), size))
-    ti.sync()  # (a CPU launch has finished when it returns; as Taichi's own reads do)
+    if not place:
+        return found[:count].copy()
+    address, dtype = place
+    ti.sync()  # (as Taichi's own reads do, though a CPU launch returns once its kernel has run)
     return np.frombuffer(ctypes.string_at(address, count * dtype.itemsize), dtype=dtype).copy()
 
 
