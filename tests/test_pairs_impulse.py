@@ -112,10 +112,10 @@ def test_coincident_centres_approaching_collide_by_the_pair_law(method):
 
 # ---------------------------------------------------------------- stacks and piles
 def pass_method(method, monkeypatch):
-    """The method to ask for; "gauss-seidel, GPU units": Gauss-Seidel with the units a GPU
-    gets (gauss_seidel.GPU_UNIT_BITS), here on the CPU."""
+    """The method to ask for; "gauss-seidel, GPU units": Gauss-Seidel coloured as on a GPU
+    (units of gauss_seidel.UNIT_BITS, no slabs), here on the CPU."""
     if method == "gauss-seidel, GPU units":
-        monkeypatch.setattr(gauss_seidel, "unit_bits", lambda: gauss_seidel.GPU_UNIT_BITS)
+        monkeypatch.setattr(gauss_seidel, "colouring", lambda: dict(slabs=0, unit_bits=gauss_seidel.UNIT_BITS))
         return "gauss-seidel"
     return method
 
@@ -274,39 +274,50 @@ def test_pile_sees_the_floor_after_particles_are_moved():
 
 
 # ---------------------------------------------------------------- the passes: Gauss-Seidel units, projection, settle
-def gauss_seidel_units(grid, n, unit_bits):
-    """Per particle: the colour (0..7) and the unit (an id) the coloured passes give it with
-    units of unit_bits, recomputed on the host from the grid's buckets (see
-    tai_coll.solvers.pairs.gauss_seidel)."""
+def bucket_coords(grid):
+    """The table coordinates (x, y, z) of the bucket of every sorted entry, and the entries."""
     bits = [int(b) for b in grid.bits]
     starts = grid.starts.to_numpy()
     active = int(starts[grid.n_buckets])
     bucket = np.repeat(np.arange(grid.n_buckets), np.diff(starts[: grid.n_buckets + 1]))
     coords = np.stack([bucket & ((1 << bits[0]) - 1), (bucket >> bits[0]) & ((1 << bits[1]) - 1),
                        bucket >> (bits[0] + bits[1])], 1)
-    unit = coords >> np.array(unit_bits)
-    colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
-    unit_id = unit[:, 0] + (unit[:, 1] << 16) + (unit[:, 2] << 32)
-    entries = grid.entries.to_numpy()[:active]
-    per_colour, per_unit = np.full(n, -1), np.full(n, -1)
-    per_colour[entries], per_unit[entries] = colour, unit_id
-    return per_colour, per_unit
+    return coords, grid.entries.to_numpy()[:active]
 
 
-@pytest.mark.parametrize("unit_bits", [gauss_seidel.CPU_UNIT_BITS, gauss_seidel.GPU_UNIT_BITS], ids=["cpu", "gpu"])
+def gauss_seidel_groups(grid, n, layout):
+    """Per particle: the colour and the group (an id) the coloured passes give it, recomputed on
+    the host from the grid's buckets (see tai_coll.solvers.pairs.gauss_seidel); layout: "slabs"
+    (the CPU's, at most MAX_SLABS along z in two colours) or a GPU unit's bits."""
+    coords, entries = bucket_coords(grid)
+    if layout == "slabs":
+        bz = int(grid.bits[2])
+        slabs = min(1 << (bz - 1), gauss_seidel.MAX_SLABS)
+        group = coords[:, 2] // ((1 << bz) // slabs)
+        colour = group & 1
+    else:
+        unit = coords >> np.array(layout)
+        colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
+        group = unit[:, 0] + (unit[:, 1] << 16) + (unit[:, 2] << 32)
+    per_colour, per_group = np.full(n, -1), np.full(n, -1)
+    per_colour[entries], per_group[entries] = colour, group
+    return per_colour, per_group
+
+
+@pytest.mark.parametrize("layout", ["slabs", gauss_seidel.UNIT_BITS], ids=["cpu slabs", "gpu units"])
 @pytest.mark.parametrize("spread", [0.3, 40.0])
-def test_gauss_seidel_units_of_a_colour_share_no_particle(spread, unit_bits):
-    # The coloured passes resolve the units of one colour at the same time: what one unit's
-    # pairs touch (its particles and their listed neighbours) must not meet what another's
-    # touch. 30 dense clusters, close together or spread over many table widths (wrap-around);
-    # the units of the CPU and of GPUs.
+def test_gauss_seidel_groups_of_a_colour_share_no_particle(spread, layout):
+    # The coloured passes resolve the groups (slabs, units) of one colour at the same time: what
+    # one group's pairs touch (its particles and their listed neighbours) must not meet what
+    # another's touch. 30 dense clusters, close together or spread over many table widths
+    # (wrap-around); the CPU's slabs and GPUs' units.
     rng = np.random.default_rng(11)
     n = 3000
     clusters = rng.uniform(-spread, spread, (30, 3)) - [3.1, 0.2, -7.7]
     x = clusters[np.arange(n) % 30] + rng.uniform(-0.12, 0.12, (n, 3))
     radius = rng.uniform(0.01, 0.02, n)
     grid = grid_of(x, radius, 0.005, forward=True)
-    colour, unit = gauss_seidel_units(grid, n, unit_bits)
+    colour, unit = gauss_seidel_groups(grid, n, layout)
     assert np.all(colour >= 0)
     counts = grid.neighbour_count.to_numpy()[:n]
     table = grid.neighbours.to_numpy()[:n]
@@ -317,18 +328,18 @@ def test_gauss_seidel_units_of_a_colour_share_no_particle(spread, unit_bits):
     touched = np.concatenate([np.arange(n), listed])
     by = np.concatenate([np.arange(n), owner])
     records = np.unique(np.stack([touched, colour[by], unit[by]], 1), axis=0)
-    # at most one unit of each colour touches any particle
+    # at most one group of each colour touches any particle
     pairs = np.unique(records[:, :2], axis=0)
     assert len(pairs) == len(records)
 
 
-@pytest.mark.parametrize("unit_bits", [gauss_seidel.CPU_UNIT_BITS, gauss_seidel.GPU_UNIT_BITS], ids=["cpu", "gpu"])
 @pytest.mark.parametrize("bits", [(4, 3, 3), (8, 3, 7), (6, 6, 6), (5, 8, 4)])
-def test_gauss_seidel_units_of_each_colour_cover_the_table_once(bits, unit_bits):
+def test_gauss_seidel_units_of_each_colour_cover_the_table_once(bits):
     # The table's bits per axis follow the particles (hash_grid.table_bits): whatever its shape,
     # every unit of the table comes up once (unit_origin), in the colour of its parities.
     import taichi as ti
 
+    unit_bits = gauss_seidel.UNIT_BITS
     per = [1 << (b - u - 1) for b, u in zip(bits, unit_bits)]
     units = per[0] * per[1] * per[2]
     origins = ti.ndarray(ti.i32, shape=8 * units)
@@ -348,6 +359,37 @@ def test_gauss_seidel_units_of_each_colour_cover_the_table_once(bits, unit_bits)
     colour = (unit[:, 0] & 1) | ((unit[:, 1] & 1) << 1) | ((unit[:, 2] & 1) << 2)
     assert np.array_equal(colour, np.repeat(np.arange(8), units))
     assert len(np.unique(origin)) == 8 * units == 1 << (sum(bits) - sum(unit_bits))
+
+
+@pytest.mark.parametrize("bits", [(4, 3, 3), (8, 3, 7), (6, 6, 6), (5, 8, 4), (4, 3, 8), (4, 4, 12)])
+def test_gauss_seidel_slabs_cover_the_table_once_in_alternating_colours(bits):
+    # Whatever the table's shape, the CPU's slabs (slab_range) cut every bucket's entries into
+    # consecutive ranges, each bucket in one slab, slabs alternating in colour along z, at
+    # least two buckets thick, no more than MAX_SLABS (the 2^12 buckets along z of the last
+    # shape: 64 slabs of 64 buckets).
+    import taichi as ti
+
+    n_buckets = 1 << sum(bits)
+    slabs = min(1 << (bits[2] - 1), gauss_seidel.MAX_SLABS)
+    starts = ti.ndarray(ti.i32, shape=n_buckets + 1)
+    starts.from_numpy(np.arange(n_buckets + 1, dtype=np.int32))  # one entry a bucket
+    ranges = ti.ndarray(ti.i32, shape=(2, slabs // 2, 2))
+
+    @ti.kernel
+    def every_range(bits: ti.types.vector(3, ti.i32), starts: ti.types.ndarray(), out: ti.types.ndarray()):
+        for c in ti.static(range(2)):
+            for u in range(gauss_seidel.slab_count(bits, gauss_seidel.MAX_SLABS) // 2):
+                out[c, u, 0], out[c, u, 1] = gauss_seidel.slab_range(c, u, bits, starts, gauss_seidel.MAX_SLABS)
+
+    every_range(ti.Vector(list(bits)), starts, ranges)
+    r = ranges.to_numpy()
+    assert slabs % 2 == 0 and (1 << bits[2]) // slabs >= 2
+    plane = 1 << (bits[0] + bits[1])
+    order = r.transpose(1, 0, 2).reshape(-1, 2)  # slab 0 (even), 1 (odd), 2 (even), ...
+    assert order[0, 0] == 0 and order[-1, 1] == n_buckets
+    assert np.array_equal(order[1:, 0], order[:-1, 1])  # consecutive, no gap, no overlap
+    assert np.all(order[:, 1] - order[:, 0] == n_buckets // slabs)  # equal slabs, whole z planes
+    assert np.all((order[:, 0] % plane) == 0)
 
 
 @pytest.mark.parametrize("method, relaxation", [("gauss-seidel", None), ("gauss-seidel", 0.8),

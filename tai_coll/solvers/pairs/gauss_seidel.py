@@ -13,17 +13,27 @@ particle's earlier pairs (summing a particle's corrections from several pairs, J
 shoots where two neighbours push it the same way: a particle wedged between others then jumps
 from one side to the other every substep).
 
-Pairs are resolved in parallel by colouring the hash grid's table: units of 4 x 2 x 2 buckets on
-the CPU, 2 x 2 x 2 on GPUs (bucket coordinates: the low bits of the cell coordinates, see
-hash_grid.bucket_of) in eight colours by the parity of the unit's coordinates. A pair links
-particles in neighbouring cells, so in neighbouring buckets: resolving a unit's pairs reads and
-writes particles within one bucket of the unit. Two units of one colour are a unit (two buckets
-or more) apart along some axis, so what they touch never overlaps (the table, at least
-16 x 8 x 8 buckets, holds an even number of units along each axis, so this holds across its
-wrap-around too). The units of a colour run in parallel, each unit's particles in sequence
+Pairs are resolved in parallel by colouring the hash grid's table (bucket coordinates: the low
+bits of the cell coordinates, see hash_grid.bucket_of). A pair links particles in neighbouring
+cells, so in neighbouring buckets: resolving the pairs a group of buckets owns reads and writes
+particles within one bucket of the group. Two groups of one colour that are two buckets or more
+apart along some axis never touch the same particle. The groups:
+- on the CPU, slabs: the table cut along z (the sort's slowest axis) into an even number of
+  slabs (at most MAX_SLABS, at least two buckets thick), in two colours, even and odd. A
+  slab's particles are one range of the sorted entries, walked in order: memory is read as the
+  sort laid it out, and the threads claim a colour's slabs one at a time from a counter.
+  (Eight colours of 4 x 2 x 2-bucket units, the earlier layout, jumped through memory unit by
+  unit, and Taichi's CPU loops give each thread one run of at least 512 indices, so a colour
+  of fewer than 1,024 units ran on one thread: docs/design-notes.md, "Slabs".)
+- on GPUs, units of 2 x 2 x 2 buckets in eight colours by the parities of the unit's
+  coordinates: a unit is one thread's sequential work, so the smallest units give the most
+  threads and the shortest chain of dependent pairs per colour.
+The table is a power of two wide along each axis, at least 16 along x and 8 along y and z
+(HashGrid): an even number of slabs or units along each, so the separation holds across its
+wrap-around too. The groups of a colour run in parallel, each group's particles in sequence
 (bucket order, then list order), the colours one after the other: the result does not depend
-on thread timing (it does depend on the unit shape, so a GPU's result differs from the CPU's
-in the order pairs are met).
+on thread timing or the thread count (it does depend on the layout, so a GPU's result differs
+from the CPU's in the order pairs are met).
 
 The colouring needs the buckets the neighbour lists were built from (HashGrid.build), unchanged.
 """
@@ -37,20 +47,52 @@ from .placement import placed_overlap
 from .shock import fixed_shares
 from .sleeping import is_asleep, shares, wake_pair
 
-COLOURS = 8
-# A unit's extent in buckets along x, y, z, as powers of two. The CPU's: 4 x 2 x 2 (rows of four
-# buckets along x, which lie together in memory; larger units measured slower). On a GPU a
-# unit is one thread's sequential work, so the smallest units the colouring allows, 2 x 2 x 2:
-# twice the threads, half the chain of dependent pairs per colour. The table (HashGrid) is a
-# power of two wide along each axis, at least 16 along x and 8 along y and z: an even number
-# of units along each, for either shape.
-CPU_UNIT_BITS = (2, 1, 1)
-GPU_UNIT_BITS = (1, 1, 1)
+COLOURS = 8  # GPU units: the parities of their coordinates
+#: The CPU's slabs: at most this many (two colours of half as many), at least two buckets thick
+#: along z each. 8, 16 and 64 ran the 100k bed of tools/bench_warp.py alike (within this
+#: machine's spread); more let more threads share a colour, and an uneven pile balance.
+MAX_SLABS = 64
+# A GPU unit's extent in buckets along x, y, z, as powers of two: 2 x 2 x 2, the smallest the
+# colouring allows.
+UNIT_BITS = (1, 1, 1)
 
 
-def unit_bits() -> tuple:
-    """The unit shape for the arch Taichi runs on (see CPU_UNIT_BITS)."""
-    return CPU_UNIT_BITS if runtime.info().arch == "cpu" else GPU_UNIT_BITS
+#: The loop indices a CPU thread gets per slab claimer (see _pass).
+CLAIM_STRIDE = 512
+
+_claims = {}
+
+
+def colouring() -> dict:
+    """The _pass layout for the arch Taichi runs on: slabs (their largest count) on the CPU, 0
+    on GPUs, which colour units of unit_bits (see the module's notes)."""
+    return dict(slabs=MAX_SLABS if runtime.info().arch == "cpu" else 0, unit_bits=UNIT_BITS)
+
+
+def _layout() -> dict:
+    """_pass's layout arguments: colouring(), the CPU's thread count and the slab counters."""
+    info = runtime.info()
+    if info.generation not in _claims:
+        _claims.clear()
+        _claims[info.generation] = ti.ndarray(ti.i32, shape=2)  # the next slab of each colour
+    workers = ti.lang.impl.current_cfg().cpu_max_num_threads if info.arch == "cpu" else 1
+    return dict(colouring(), workers=workers, claims=_claims[info.generation])
+
+
+@ti.func
+def slab_count(bits: ivec3, slabs: ti.template()) -> ti.i32:
+    """How many slabs the table of bits is cut into: one per two buckets along z, at most
+    `slabs` (both powers of two, the table at least 8 buckets along z: an even count)."""
+    return ti.min(1 << (bits.z - 1), slabs)
+
+
+@ti.func
+def slab_range(c, u, bits: ivec3, starts: ti.template(), slabs: ti.template()):
+    """The entries of slab u of colour c (0: even slabs, 1: odd ones): its buckets are
+    consecutive in the table, so one range of the sorted entries."""
+    size = ((1 << bits.z) // slab_count(bits, slabs)) << (bits.x + bits.y)  # buckets in a slab
+    first = (2 * u + c) * size
+    return starts[first], starts[first + size]
 
 
 @ti.func
@@ -90,7 +132,7 @@ SETTLE_TOUCH = 1e-4
 
 @ti.kernel
 def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(),
-          unit_bits: ti.template(), grid: GridArgs,
+          slabs: ti.template(), unit_bits: ti.template(), workers: ti.i32, claims: ARRAY, grid: GridArgs,
           lists: ListArgs, particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
           dt: float, push_distance: float, wake_speed: float, levels: ARRAY,
@@ -121,117 +163,136 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
     shock: the lower of a pair's support levels (shock.py; levels) is immovable.
     Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
     Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
-    CPU): the units running at once share no particle. Divisions by the pair's mass sum are
+    CPU): the groups running at once share no particle. Divisions by the pair's mass sum are
     kept off the chain of dependent pairs (1 / (m_i + m_j) depends on the masses alone)."""
     changed[0] = 0
-    # units per colour
-    units = 1 << (grid.bits.x + grid.bits.y + grid.bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)
-    for c in ti.static(range(COLOURS)):
-        for u in range(units):
-            origin = unit_origin(c, u, grid.bits, unit_bits)
-            found = 0
-            for r in range(1 << (unit_bits[1] + unit_bits[2])):  # the unit's rows
-                begin, end = row_range(origin, r, grid.bits, grid.starts, unit_bits)
-                for slot in range(begin, end):
-                    i = grid.entries[slot]
-                    ri = particles.radius[i]
-                    mi = particles.mass[i]
-                    xi = x1[i]
-                    vi = v_test[i]  # (projection: unused)
-                    moved = vec3(0.0)  # projection: i's displacement in this pass that velocity follows
-                    x_start = vec3(0.0)  # projection of placed particles: i's start position
-                    allowance_i = 0.0  # ... and its overlap allowance
-                    grown = 0.0  # ... and what it grows by in this pass
-                    own = 0  # elastic: whether i's own pairs changed its velocity in this pass
-                    asleep_i = 0
-                    if ti.static(sleep):
-                        asleep_i = ti.cast(is_asleep(particles, i), ti.i32)
-                    if ti.static(mode == PROJECTION and placed):
-                        x_start = particles.x[i]
-                        allowance_i = particles.allowance[i]
-                    for k in range(lists.neighbour_count[i]):
-                        j = lists.neighbours[i, k]
-                        xj = x1[j]
-                        reach = ri + particles.radius[j]
-                        touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
-                        d = xi - xj
-                        d2 = d.norm_sqr()
-                        asleep_j = 0
-                        if ti.static(sleep):
-                            asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
-                            if ti.static(mode != PROJECTION):
-                                asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
-                                                               d, d2, reach, wake_speed)
-                        if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
-                                ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
-                            nrm, dist = pair_normal(xi, xj, i, j)
-                            # i's and j's parts of the pair's change, by inverse mass
-                            wi, wj = shares(mi, particles.mass[j], asleep_i != 0, asleep_j != 0)
-                            if ti.static(shock):
-                                wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
-                            if ti.static(mode == PROJECTION and not placed):
-                                found = 1
-                                move = ((reach - dist) * relaxation) * nrm
-                                xi += wi * move
-                                moved += wi * move
-                                x1[j] = xj - wj * move
-                                v1[j] = v1[j] - (wj / dt) * move
-                            elif ti.static(mode == PROJECTION):
-                                # while a pair has an overlap allowance (one of the two was placed
-                                # overlapping), the overlap it had at the start of the substep (at
-                                # x) is not a collision: it goes by positions only, by at most
-                                # push_distance a substep; what developed since moves the
-                                # velocities too (docs/physics.md 5)
-                                separate, followed = placed_overlap(reach - dist, reach, x_start, particles.x[j],
-                                                                    allowance_i + particles.allowance[j], push_distance)
-                                if separate > 0.0:
-                                    found = 1
-                                    move = (separate * relaxation) * nrm
-                                    push = move
-                                    if followed < separate:
-                                        # the rest moves the candidates only, not the velocities; a
-                                        # particle moved so gets that much allowance, so that overlap
-                                        # it is pushed into counts as placed too
-                                        push = (followed * relaxation) * nrm
-                                        shift = move - push
-                                        grown += wi * shift.norm()
-                                        particles.allowance[j] = particles.allowance[j] + wj * shift.norm()
-                                    xi += wi * move
-                                    moved += wi * push
-                                    x1[j] = xj - wj * move
-                                    v1[j] = v1[j] - (wj / dt) * push
-                            else:
-                                v_rel = vi - v_test[j]
-                                v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
-                                if dvn > 0.0:
-                                    found = 1
-                                    change = (v_new - v_rel) * relaxation
-                                    vi += wi * change
-                                    vj = v_test[j] - wj * change
-                                    v_test[j] = vj
-                                    if ti.static(mode == ELASTIC):
-                                        own = 1
-                                        v1[j] = v1[j] - wj * change
-                                        x1[j] = xj - (dt * wj) * change
-                                        xi += (dt * wi) * change
-                                    elif ti.static(mode == CONTACT):
-                                        x1[j] = particles.x[j] + dt * vj
-                                        xi = particles.x[i] + dt * vi
-                    x1[i] = xi
-                    if ti.static(mode == PROJECTION):
-                        v1[i] = v1[i] + moved / dt
-                        if ti.static(placed):
-                            particles.allowance[i] = particles.allowance[i] + grown
-                    elif ti.static(mode == ELASTIC):
-                        if own != 0:
-                            # (only then: with fast math the compiler may reorder v1 + (vi - v_test)
-                            # and leave round-off on a particle whose pairs did nothing)
-                            v1[i] = v1[i] + (vi - v_test[i])
-                            v_test[i] = vi
+    claims[0], claims[1] = 0, 0
+    # groups per colour: slabs (the CPU) or units (slabs 0: GPUs)
+    groups = 1 << (grid.bits.x + grid.bits.y + grid.bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)
+    if ti.static(slabs):
+        groups = slab_count(grid.bits, slabs) // 2
+    for c in ti.static(range(2 if slabs else COLOURS)):
+        # units: one loop index a unit. Slabs: claimed one at a time by the CPU's threads from a
+        # counter (a slab's cost follows its particles; the loop holds one index in CLAIM_STRIDE
+        # that claims: Taichi's CPU loops hand each thread one run of at least 512 indices)
+        for t in range(workers * CLAIM_STRIDE if ti.static(slabs) else groups):
+            u = t
+            if ti.static(slabs):
+                u = groups
+                if t % CLAIM_STRIDE == 0:
+                    u = ti.atomic_add(claims[c], 1)
+            while u < groups:
+                origin = unit_origin(c, u, grid.bits, unit_bits)  # (units)
+                found = 0
+                for r in range(1 if ti.static(slabs) else 1 << (unit_bits[1] + unit_bits[2])):  # a unit's rows
+                    begin, end = 0, 0
+                    if ti.static(slabs):
+                        begin, end = slab_range(c, u, grid.bits, grid.starts, slabs)
                     else:
-                        v_test[i] = vi
-            if found != 0 and changed[0] == 0:
-                changed[0] = 1
+                        begin, end = row_range(origin, r, grid.bits, grid.starts, unit_bits)
+                    for slot in range(begin, end):
+                        i = grid.entries[slot]
+                        ri = particles.radius[i]
+                        mi = particles.mass[i]
+                        xi = x1[i]
+                        vi = v_test[i]  # (projection: unused)
+                        moved = vec3(0.0)  # projection: i's displacement in this pass that velocity follows
+                        x_start = vec3(0.0)  # projection of placed particles: i's start position
+                        allowance_i = 0.0  # ... and its overlap allowance
+                        grown = 0.0  # ... and what it grows by in this pass
+                        own = 0  # elastic: whether i's own pairs changed its velocity in this pass
+                        asleep_i = 0
+                        if ti.static(sleep):
+                            asleep_i = ti.cast(is_asleep(particles, i), ti.i32)
+                        if ti.static(mode == PROJECTION and placed):
+                            x_start = particles.x[i]
+                            allowance_i = particles.allowance[i]
+                        for k in range(lists.neighbour_count[i]):
+                            j = lists.neighbours[i, k]
+                            xj = x1[j]
+                            reach = ri + particles.radius[j]
+                            touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
+                            d = xi - xj
+                            d2 = d.norm_sqr()
+                            asleep_j = 0
+                            if ti.static(sleep):
+                                asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
+                                if ti.static(mode != PROJECTION):
+                                    asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
+                                                                   d, d2, reach, wake_speed)
+                            if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
+                                    ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
+                                nrm, dist = pair_normal(xi, xj, i, j)
+                                # i's and j's parts of the pair's change, by inverse mass
+                                wi, wj = shares(mi, particles.mass[j], asleep_i != 0, asleep_j != 0)
+                                if ti.static(shock):
+                                    wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
+                                if ti.static(mode == PROJECTION and not placed):
+                                    found = 1
+                                    move = ((reach - dist) * relaxation) * nrm
+                                    xi += wi * move
+                                    moved += wi * move
+                                    x1[j] = xj - wj * move
+                                    v1[j] = v1[j] - (wj / dt) * move
+                                elif ti.static(mode == PROJECTION):
+                                    # while a pair has an overlap allowance (one of the two was placed
+                                    # overlapping), the overlap it had at the start of the substep (at
+                                    # x) is not a collision: it goes by positions only, by at most
+                                    # push_distance a substep; what developed since moves the
+                                    # velocities too (docs/physics.md 5)
+                                    separate, followed = placed_overlap(reach - dist, reach, x_start, particles.x[j],
+                                                                        allowance_i + particles.allowance[j], push_distance)
+                                    if separate > 0.0:
+                                        found = 1
+                                        move = (separate * relaxation) * nrm
+                                        push = move
+                                        if followed < separate:
+                                            # the rest moves the candidates only, not the velocities; a
+                                            # particle moved so gets that much allowance, so that overlap
+                                            # it is pushed into counts as placed too
+                                            push = (followed * relaxation) * nrm
+                                            shift = move - push
+                                            grown += wi * shift.norm()
+                                            particles.allowance[j] = particles.allowance[j] + wj * shift.norm()
+                                        xi += wi * move
+                                        moved += wi * push
+                                        x1[j] = xj - wj * move
+                                        v1[j] = v1[j] - (wj / dt) * push
+                                else:
+                                    v_rel = vi - v_test[j]
+                                    v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
+                                    if dvn > 0.0:
+                                        found = 1
+                                        change = (v_new - v_rel) * relaxation
+                                        vi += wi * change
+                                        vj = v_test[j] - wj * change
+                                        v_test[j] = vj
+                                        if ti.static(mode == ELASTIC):
+                                            own = 1
+                                            v1[j] = v1[j] - wj * change
+                                            x1[j] = xj - (dt * wj) * change
+                                            xi += (dt * wi) * change
+                                        elif ti.static(mode == CONTACT):
+                                            x1[j] = particles.x[j] + dt * vj
+                                            xi = particles.x[i] + dt * vi
+                        x1[i] = xi
+                        if ti.static(mode == PROJECTION):
+                            v1[i] = v1[i] + moved / dt
+                            if ti.static(placed):
+                                particles.allowance[i] = particles.allowance[i] + grown
+                        elif ti.static(mode == ELASTIC):
+                            if own != 0:
+                                # (only then: with fast math the compiler may reorder v1 + (vi - v_test)
+                                # and leave round-off on a particle whose pairs did nothing)
+                                v1[i] = v1[i] + (vi - v_test[i])
+                                v_test[i] = vi
+                        else:
+                            v_test[i] = vi
+                if found != 0 and changed[0] == 0:
+                    changed[0] = 1
+                u = groups  # (units: done)
+                if ti.static(slabs):
+                    u = ti.atomic_add(claims[c], 1)
 
 
 def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float,
@@ -241,7 +302,7 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
     pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
     wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep."""
     _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None, shock=False,
-          unit_bits=unit_bits(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
+          **_layout(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
           push_distance=0.0, wake_speed=wake_speed or 0.0, levels=changed, changed=changed, v_test=v_test, x1=x1,
           v1=v1)
 
@@ -250,7 +311,7 @@ def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, w
                 levels=None):
     """A velocity pass at the final positions, positions unchanged; levels: support levels
     (shock.py) or None; see _pass."""
-    _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, shock=levels is not None, unit_bits=unit_bits(),
+    _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, shock=levels is not None, **_layout(),
           grid=grid, lists=lists, particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0,
           wake_speed=wake_speed or 0.0, levels=changed if levels is None else levels, changed=changed, v_test=v1,
           x1=x1, v1=v1)
@@ -261,7 +322,7 @@ def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed
     """A projection pass over the pairs of the forward lists; placed: overlap allowances are
     left, push_distance (m) of them may go this substep; sleep: some particles may sleep;
     levels: support levels (shock.py) or None; see _pass."""
-    _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, unit_bits=unit_bits(), grid=grid,
+    _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, **_layout(), grid=grid,
           lists=lists, particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0,
           relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0,
           levels=changed if levels is None else levels, changed=changed, v_test=v1, x1=x1, v1=v1)
