@@ -205,18 +205,29 @@ def test_dem_contacts_too_soft_for_their_load_are_warned_about():
         scene.step(30)
 
 
-@pytest.mark.parametrize("count", [40, pytest.param(1000, marks=pytest.mark.slow)])
-def test_coincident_particles_leave_no_faster_than_the_push_speed(count):
+@pytest.mark.parametrize("count", [36, 40, 48, pytest.param(1000, marks=pytest.mark.slow)])
+def test_coincident_particles_separate_without_energy_beyond_the_push_speed(count):
+    # Particles spawned all in one place separate by positions, the velocity the separation
+    # leaves capped by the push speed: at no frame does the crowd carry more kinetic energy than
+    # every particle at the push speed would, and no particle is faster than 1 m/s (issue [2 of
+    # 6]'s bound for the random cube). A particle can pass the push speed itself: overlap a
+    # position push drives into a neighbour counts as developed in the substep and is followed
+    # by velocity (placement.placed_overlap), so the crowd's pair order decides. With the CPU's
+    # former Gauss-Seidel units 36, 44 and 48 particles reached 0.502 to 0.506 m/s (40: 0.5);
+    # with slabs 36 to 48 reach 0.503 to 0.62 m/s, at 0.65 to 0.81 of this energy bound
+    # (docs/design-notes.md, "Slabs").
     scene = tc.Scene(gravity=(0, 0, 0))
     scene.add_particles(positions=np.zeros((count, 3)), radius=0.005)
     scene.enable_particle_collisions()
-    fastest = 0.0
+    fastest, energy = 0.0, 0.0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # (1,000 in one place overflow the neighbour lists, and say so)
         for _ in range(30):
             scene.step()
-            fastest = max(fastest, float(np.linalg.norm(scene.velocities(), axis=1).max()))
-    limit = MAX_PUSH_SPEED * 1.001 if count <= 48 else 1.0
-    assert fastest <= limit
+            speed = np.linalg.norm(scene.velocities(), axis=1)
+            fastest = max(fastest, float(speed.max()))
+            energy = max(energy, float(np.sum(speed ** 2)) / (count * MAX_PUSH_SPEED ** 2))  # (equal masses)
+    assert fastest <= 1.0
+    assert energy <= 1.0 + 1e-6
     if count <= 48:
         assert scene.particle_overlap()["max"] < 0.01
