@@ -506,7 +506,7 @@ import sys
 import numpy as np
 import tai_coll as tc
 
-for threads in (1, 2, 3):
+for threads in (1, 2):
     tc.init(arch="cpu", precision="f64", threads=threads, seed=0)
     r = 0.005
     rng = np.random.default_rng(5)
@@ -530,7 +530,8 @@ for threads in (1, 2, 3):
 def test_gauss_seidel_slabs_give_the_same_state_with_any_thread_count(tmp_path):
     # The CPU's slabs are claimed by whichever thread is free (gauss_seidel.CLAIM_STRIDE), and
     # slabs of one colour share no particle: 600 particles settling in a box (a table of
-    # several slabs, pairs in every one) reach the same state to the bit with 1, 2 and 3 threads.
+    # several slabs, pairs in every one) reach the same state to the bit with 1 and 2 threads (each
+    # thread count compiles its kernels anew: a third would add a third of the time).
     import subprocess
     import sys
 
@@ -539,6 +540,6 @@ def test_gauss_seidel_slabs_give_the_same_state_with_any_thread_count(tmp_path):
     run = subprocess.run([sys.executable, str(probe)], capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stderr
     lines = [line.split() for line in run.stdout.splitlines() if line[:1].isdigit()]
-    assert [line[0] for line in lines] == ["1", "2", "3"]
+    assert [line[0] for line in lines] == ["1", "2"]
     assert len({line[1] for line in lines}) == 1, lines
     assert float(lines[0][2]) < -0.01  # (something moved: the particles fell and met)
