@@ -50,14 +50,17 @@ from .sleeping import is_asleep, shares, wake_pair
 COLOURS = 8  # GPU units: the parities of their coordinates
 #: The CPU's slabs: at most this many (two colours of half as many), at least two buckets thick
 #: along z each. 8, 16 and 64 ran the 100k bed of tools/bench_warp.py alike (within this
-#: machine's spread); more let more threads share a colour, and an uneven pile balance.
+#: machine's spread; measured before the threads claimed slabs); more let more threads share a
+#: colour, and balance an uneven pile.
 MAX_SLABS = 64
 # A GPU unit's extent in buckets along x, y, z, as powers of two: 2 x 2 x 2, the smallest the
 # colouring allows.
 UNIT_BITS = (1, 1, 1)
 
 
-#: The loop indices a CPU thread gets per slab claimer (see _pass).
+#: Loop indices per claimer in the slab loop: Taichi 1.7 gives each CPU thread one run of at
+#: least 512 indices, so a loop of threads x CLAIM_STRIDE gives every thread one run holding
+#: one claimer, which takes slabs until none are left (see _pass).
 CLAIM_STRIDE = 512
 
 _claims = {}
