@@ -73,13 +73,15 @@ def colouring() -> dict:
 
 
 def _layout() -> dict:
-    """_pass's layout arguments: colouring(), the CPU's thread count and the slab counters."""
+    """_pass's layout arguments: colouring(), and the thread count and slab counters of the
+    running Taichi (made once per runtime: every pass launch asks)."""
     info = runtime.info()
     if info.generation not in _claims:
         _claims.clear()
-        _claims[info.generation] = ti.ndarray(ti.i32, shape=2)  # the next slab of each colour
-    workers = ti.lang.impl.current_cfg().cpu_max_num_threads if info.arch == "cpu" else 1
-    return dict(colouring(), workers=workers, claims=_claims[info.generation])
+        _claims[info.generation] = dict(
+            workers=ti.lang.impl.current_cfg().cpu_max_num_threads if info.arch == "cpu" else 1,
+            claims=ti.ndarray(ti.i32, shape=2))  # the next slab of each colour
+    return dict(colouring(), **_claims[info.generation])
 
 
 @ti.func
@@ -185,7 +187,9 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                 if t % CLAIM_STRIDE == 0:
                     u = ti.atomic_add(claims[c], 1)
             while u < groups:
-                origin = unit_origin(c, u, grid.bits, unit_bits)  # (units)
+                origin = 0
+                if ti.static(not slabs):
+                    origin = unit_origin(c, u, grid.bits, unit_bits)
                 found = 0
                 for r in range(1 if ti.static(slabs) else 1 << (unit_bits[1] + unit_bits[2])):  # a unit's rows
                     begin, end = 0, 0
