@@ -142,15 +142,16 @@ def shrink_allowances(n: int, amount: float, allowance, work) -> float:
 
 
 @ti.kernel
-def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, cap: float,
+def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, held: ARRAY, cap: float,
                       # in-out
                       v1: ARRAY):
-    """A particle with an overlap allowance leaves the projection passes no faster than `cap`
-    (m/s) or than it entered them (v_before), whichever is more: the rest of its separation
-    goes by positions only. (Capping what one substep adds would let a crowd's pushes add up
-    over the substeps.)"""
+    """A particle with an overlap allowance, or moved in the projection passes by a pair holding
+    one (held[i] != 0: a neighbour whose allowance ran out, into which a placed particle was
+    pushed), leaves the passes no faster than `cap` (m/s) or than it entered them (v_before),
+    whichever is more: the rest of its separation goes by positions only. (Capping what one
+    substep adds would let a crowd's pushes add up over the substeps.)"""
     for i in range(particles.count):
-        if particles.allowance[i] > 0.0:
+        if particles.allowance[i] > 0.0 or held[i] != 0:
             speed = v1[i].norm()
             limit = ti.max(v_before[i].norm(), cap)
             if speed > limit:
