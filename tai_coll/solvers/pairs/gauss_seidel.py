@@ -135,6 +135,119 @@ ELASTIC, CONTACT, PROJECTION, SETTLE = 0, 1, 2, 3  # what a pass does (see _pass
 SETTLE_TOUCH = 1e-4
 
 
+@ti.func
+def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(), i,
+                    lists: ti.template(), particles: ti.template(), restitution, friction, wet_friction,
+                    wet_law: ti.template(), relaxation, dt, push_distance, wake_speed, levels: ti.template(),
+                    v_test: ti.template(), x1: ti.template(), v1: ti.template(), held: ti.template()) -> ti.i32:
+    """_pass's work on particle i: its pairs of the forward lists, one after the other, each
+    seeing the changes of those before it (the arguments as _pass's). Returns 1 if any pair had
+    something to do, else 0."""
+    found = 0
+    ri = particles.radius[i]
+    mi = particles.mass[i]
+    xi = x1[i]
+    vi = v_test[i]  # (projection: unused)
+    moved = vec3(0.0)  # projection: i's displacement in this pass that velocity follows
+    x_start = vec3(0.0)  # projection of placed particles: i's start position
+    allowance_i = 0.0  # ... and its overlap allowance
+    grown = 0.0  # ... and what it grows by in this pass
+    held_i = 0  # ... and whether a pair with an allowance moved it in this pass
+    own = 0  # elastic: whether i's own pairs changed its velocity in this pass
+    asleep_i = 0
+    if ti.static(sleep):
+        asleep_i = ti.cast(is_asleep(particles, i), ti.i32)
+    if ti.static(mode == PROJECTION and placed):
+        x_start = particles.x[i]
+        allowance_i = particles.allowance[i]
+    for k in range(lists.neighbour_count[i]):
+        j = lists.neighbours[i, k]
+        xj = x1[j]
+        reach = ri + particles.radius[j]
+        touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
+        d = xi - xj
+        d2 = d.norm_sqr()
+        asleep_j = 0
+        if ti.static(sleep):
+            asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
+            if ti.static(mode != PROJECTION):
+                asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
+                                               d, d2, reach, wake_speed)
+        if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
+                ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
+            nrm, dist = pair_normal(xi, xj, i, j)
+            # i's and j's parts of the pair's change, by inverse mass
+            wi, wj = shares(mi, particles.mass[j], asleep_i != 0, asleep_j != 0)
+            if ti.static(shock):
+                wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
+            if ti.static(mode == PROJECTION and not placed):
+                found = 1
+                move = ((reach - dist) * relaxation) * nrm
+                xi += wi * move
+                moved += wi * move
+                x1[j] = xj - wj * move
+                v1[j] = v1[j] - (wj / dt) * move
+            elif ti.static(mode == PROJECTION):
+                # while a pair has an overlap allowance (one of the two was placed overlapping),
+                # the overlap it had at the start of the substep (at x) is not a collision: it
+                # goes by positions only, by at most push_distance a substep; what developed
+                # since moves the velocities too (docs/physics.md 5.2.1)
+                separate, followed = placed_overlap(reach - dist, reach, x_start, particles.x[j],
+                                                    allowance_i + particles.allowance[j], push_distance)
+                if separate > 0.0:
+                    found = 1
+                    if allowance_i + particles.allowance[j] > 0.0:
+                        held_i = 1
+                        held[j] = 1
+                    move = (separate * relaxation) * nrm
+                    push = move
+                    if followed < separate:
+                        # the rest moves the candidates only, not the velocities; a particle
+                        # moved so gets that much allowance, so that overlap it is pushed into
+                        # counts as placed too
+                        push = (followed * relaxation) * nrm
+                        shift = move - push
+                        grown += wi * shift.norm()
+                        particles.allowance[j] = particles.allowance[j] + wj * shift.norm()
+                    xi += wi * move
+                    moved += wi * push
+                    x1[j] = xj - wj * move
+                    v1[j] = v1[j] - (wj / dt) * push
+            else:
+                v_rel = vi - v_test[j]
+                v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
+                if dvn > 0.0:
+                    found = 1
+                    change = (v_new - v_rel) * relaxation
+                    vi += wi * change
+                    vj = v_test[j] - wj * change
+                    v_test[j] = vj
+                    if ti.static(mode == ELASTIC):
+                        own = 1
+                        v1[j] = v1[j] - wj * change
+                        x1[j] = xj - (dt * wj) * change
+                        xi += (dt * wi) * change
+                    elif ti.static(mode == CONTACT):
+                        x1[j] = particles.x[j] + dt * vj
+                        xi = particles.x[i] + dt * vi
+    x1[i] = xi
+    if ti.static(mode == PROJECTION):
+        v1[i] = v1[i] + moved / dt
+        if ti.static(placed):
+            particles.allowance[i] = particles.allowance[i] + grown
+            if held_i != 0:
+                held[i] = 1
+    elif ti.static(mode == ELASTIC):
+        if own != 0:
+            # (only then: with fast math the compiler may reorder v1 + (vi - v_test) and leave
+            # round-off on a particle whose pairs did nothing)
+            v1[i] = v1[i] + (vi - v_test[i])
+            v_test[i] = vi
+    else:
+        v_test[i] = vi
+    return found
+
+
 @ti.kernel
 def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(),
           slabs: ti.template(), unit_bits: ti.template(), workers: ti.i32, claims: ARRAY, grid: GridArgs,
@@ -199,109 +312,9 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     else:
                         begin, end = row_range(origin, r, grid.bits, grid.starts, unit_bits)
                     for slot in range(begin, end):
-                        i = grid.entries[slot]
-                        ri = particles.radius[i]
-                        mi = particles.mass[i]
-                        xi = x1[i]
-                        vi = v_test[i]  # (projection: unused)
-                        moved = vec3(0.0)  # projection: i's displacement in this pass that velocity follows
-                        x_start = vec3(0.0)  # projection of placed particles: i's start position
-                        allowance_i = 0.0  # ... and its overlap allowance
-                        grown = 0.0  # ... and what it grows by in this pass
-                        held_i = 0  # ... and whether a pair with an allowance moved it in this pass
-                        own = 0  # elastic: whether i's own pairs changed its velocity in this pass
-                        asleep_i = 0
-                        if ti.static(sleep):
-                            asleep_i = ti.cast(is_asleep(particles, i), ti.i32)
-                        if ti.static(mode == PROJECTION and placed):
-                            x_start = particles.x[i]
-                            allowance_i = particles.allowance[i]
-                        for k in range(lists.neighbour_count[i]):
-                            j = lists.neighbours[i, k]
-                            xj = x1[j]
-                            reach = ri + particles.radius[j]
-                            touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
-                            d = xi - xj
-                            d2 = d.norm_sqr()
-                            asleep_j = 0
-                            if ti.static(sleep):
-                                asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
-                                if ti.static(mode != PROJECTION):
-                                    asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
-                                                                   d, d2, reach, wake_speed)
-                            if d2 < touch * touch and (asleep_i & asleep_j) == 0 and (
-                                    ti.static(mode == PROJECTION) or may_approach(vi - v_test[j], d, d2)):
-                                nrm, dist = pair_normal(xi, xj, i, j)
-                                # i's and j's parts of the pair's change, by inverse mass
-                                wi, wj = shares(mi, particles.mass[j], asleep_i != 0, asleep_j != 0)
-                                if ti.static(shock):
-                                    wi, wj = fixed_shares(wi, wj, levels[i], levels[j])
-                                if ti.static(mode == PROJECTION and not placed):
-                                    found = 1
-                                    move = ((reach - dist) * relaxation) * nrm
-                                    xi += wi * move
-                                    moved += wi * move
-                                    x1[j] = xj - wj * move
-                                    v1[j] = v1[j] - (wj / dt) * move
-                                elif ti.static(mode == PROJECTION):
-                                    # while a pair has an overlap allowance (one of the two was placed
-                                    # overlapping), the overlap it had at the start of the substep (at
-                                    # x) is not a collision: it goes by positions only, by at most
-                                    # push_distance a substep; what developed since moves the
-                                    # velocities too (docs/physics.md 5)
-                                    separate, followed = placed_overlap(reach - dist, reach, x_start, particles.x[j],
-                                                                        allowance_i + particles.allowance[j], push_distance)
-                                    if separate > 0.0:
-                                        found = 1
-                                        if allowance_i + particles.allowance[j] > 0.0:
-                                            held_i = 1
-                                            held[j] = 1
-                                        move = (separate * relaxation) * nrm
-                                        push = move
-                                        if followed < separate:
-                                            # the rest moves the candidates only, not the velocities; a
-                                            # particle moved so gets that much allowance, so that overlap
-                                            # it is pushed into counts as placed too
-                                            push = (followed * relaxation) * nrm
-                                            shift = move - push
-                                            grown += wi * shift.norm()
-                                            particles.allowance[j] = particles.allowance[j] + wj * shift.norm()
-                                        xi += wi * move
-                                        moved += wi * push
-                                        x1[j] = xj - wj * move
-                                        v1[j] = v1[j] - (wj / dt) * push
-                                else:
-                                    v_rel = vi - v_test[j]
-                                    v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
-                                    if dvn > 0.0:
-                                        found = 1
-                                        change = (v_new - v_rel) * relaxation
-                                        vi += wi * change
-                                        vj = v_test[j] - wj * change
-                                        v_test[j] = vj
-                                        if ti.static(mode == ELASTIC):
-                                            own = 1
-                                            v1[j] = v1[j] - wj * change
-                                            x1[j] = xj - (dt * wj) * change
-                                            xi += (dt * wi) * change
-                                        elif ti.static(mode == CONTACT):
-                                            x1[j] = particles.x[j] + dt * vj
-                                            xi = particles.x[i] + dt * vi
-                        x1[i] = xi
-                        if ti.static(mode == PROJECTION):
-                            v1[i] = v1[i] + moved / dt
-                            if ti.static(placed):
-                                particles.allowance[i] = particles.allowance[i] + grown
-                                if held_i != 0:
-                                    held[i] = 1
-                        elif ti.static(mode == ELASTIC):
-                            if own != 0:
-                                # (only then: with fast math the compiler may reorder v1 + (vi - v_test)
-                                # and leave round-off on a particle whose pairs did nothing)
-                                v1[i] = v1[i] + (vi - v_test[i])
-                                v_test[i] = vi
-                        else:
-                            v_test[i] = vi
+                        found |= _particle_pairs(mode, placed, sleep, shock, grid.entries[slot], lists, particles,
+                                                 restitution, friction, wet_friction, wet_law, relaxation, dt,
+                                                 push_distance, wake_speed, levels, v_test, x1, v1, held)
                 if found != 0 and changed[0] == 0:
                     changed[0] = 1
                 u = groups  # (units: done)
