@@ -63,6 +63,9 @@ UNIT_BITS = (1, 1, 1)
 #: one claimer, which takes slabs until none are left (see _pass).
 CLAIM_STRIDE = 512
 
+#: The slab loop's claiming (see _pass): the CPU's thread count and the next slab of each colour.
+ClaimArgs = ti.types.argpack(workers=ti.i32, next=ARRAY)
+
 _claims = {}
 
 
@@ -78,9 +81,9 @@ def _layout() -> dict:
     info = runtime.info()
     if info.generation not in _claims:
         _claims.clear()
-        _claims[info.generation] = dict(
+        _claims[info.generation] = dict(claims=ClaimArgs(
             workers=ti.lang.impl.current_cfg().cpu_max_num_threads if info.arch == "cpu" else 1,
-            claims=ti.ndarray(ti.i32, shape=2))  # the next slab of each colour
+            next=ti.ndarray(ti.i32, shape=2)))
     return dict(colouring(), **_claims[info.generation])
 
 
@@ -250,7 +253,7 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
 
 @ti.kernel
 def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(),
-          slabs: ti.template(), unit_bits: ti.template(), workers: ti.i32, claims: ARRAY, grid: GridArgs,
+          slabs: ti.template(), unit_bits: ti.template(), claims: ClaimArgs, grid: GridArgs,
           lists: ListArgs, particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
           dt: float, push_distance: float, wake_speed: float, levels: ARRAY,
@@ -285,7 +288,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
     CPU): the groups running at once share no particle. Divisions by the pair's mass sum are
     kept off the chain of dependent pairs (1 / (m_i + m_j) depends on the masses alone)."""
     changed[0] = 0
-    claims[0], claims[1] = 0, 0
+    claims.next[0], claims.next[1] = 0, 0
     # groups per colour: slabs (the CPU) or units (slabs 0: GPUs)
     groups = 1 << (grid.bits.x + grid.bits.y + grid.bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)
     if ti.static(slabs):
@@ -294,12 +297,12 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
         # units: one loop index a unit. Slabs: claimed one at a time by the CPU's threads from a
         # counter (a slab's cost follows its particles; the loop holds one index in CLAIM_STRIDE
         # that claims: Taichi's CPU loops hand each thread one run of at least 512 indices)
-        for t in range(workers * CLAIM_STRIDE if ti.static(slabs) else groups):
+        for t in range(claims.workers * CLAIM_STRIDE if ti.static(slabs) else groups):
             u = t
             if ti.static(slabs):
                 u = groups
                 if t % CLAIM_STRIDE == 0:
-                    u = ti.atomic_add(claims[c], 1)
+                    u = ti.atomic_add(claims.next[c], 1)
             while u < groups:
                 origin = 0
                 if ti.static(not slabs):
@@ -319,7 +322,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     changed[0] = 1
                 u = groups  # (units: done)
                 if ti.static(slabs):
-                    u = ti.atomic_add(claims[c], 1)
+                    u = ti.atomic_add(claims.next[c], 1)
 
 
 def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float,
