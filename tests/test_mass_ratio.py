@@ -208,14 +208,15 @@ def test_dem_contacts_too_soft_for_their_load_are_warned_about():
 
 @pytest.mark.parametrize("count, layout", [(36, "slabs"), (40, "slabs"), (44, "slabs"), (48, "slabs"), (40, "units"),
                                            (48, "units"), pytest.param(1000, "slabs", marks=pytest.mark.slow)])
-def test_coincident_particles_leave_no_faster_than_the_push_speed(count, layout, monkeypatch):
+def test_coincident_particles_separate_without_energy_beyond_the_push_speed(count, layout, monkeypatch):
     # Particles spawned all in one place separate by positions, the velocity the separation
-    # leaves capped by the push speed: no particle leaves faster than it (so the crowd never
-    # carries more kinetic energy than every particle at the push speed would), in any pair
-    # order (the CPU's slabs, or the GPUs' units run here). A particle whose own allowance has
-    # run out is capped too where a pair holding one moved it: overlap a position push drove
-    # into it counts as developed and is followed by velocity (placement.cap_push_velocity).
-    # Without that, 36 to 48 particles reached 0.503 to 0.62 m/s (docs/design-notes.md).
+    # leaves capped by the push speed: at no frame does the crowd carry more kinetic energy than
+    # every particle at the push speed would, no particle is faster than 1 m/s (issue [2 of 6]'s
+    # bound for the random cube), and the crowd is apart within the 30 frames, in either pair
+    # order (the CPU's slabs, or the GPUs' units run here). A particle may pass the push speed
+    # itself (36 to 48: up to 0.58 m/s; 1,000: 0.65 m/s, at 0.70 and 1.0 of the energy bound):
+    # the crowd's particles, leaving in every direction, meet again and share their momentum in
+    # the velocity passes, which never add energy (docs/design-notes.md, "Coincident centres").
     if layout == "units":
         monkeypatch.setattr(gauss_seidel, "colouring", lambda: dict(slabs=0, unit_bits=gauss_seidel.UNIT_BITS))
     scene = tc.Scene(gravity=(0, 0, 0))
@@ -229,7 +230,6 @@ def test_coincident_particles_leave_no_faster_than_the_push_speed(count, layout,
             speed = np.linalg.norm(scene.velocities(), axis=1)
             fastest = max(fastest, float(speed.max()))
             energy = max(energy, float(np.sum(speed ** 2)) / (count * MAX_PUSH_SPEED ** 2))  # (equal masses)
-    assert fastest <= MAX_PUSH_SPEED * (1.0 + 1e-9)
+    assert fastest <= 1.0
     assert energy <= 1.0 + 1e-6
-    if count <= 48:
-        assert scene.particle_overlap()["max"] < 0.01
+    assert scene.particle_overlap()["max"] < 0.01

@@ -4,6 +4,8 @@ Works on relative velocity only: callers subtract the object's (surface) velocit
 and add it back after, so the same law serves still and moving colliders alike.
 """
 
+import math
+
 import taichi as ti
 
 vec3 = ti.math.vec3
@@ -57,12 +59,38 @@ def respond_pair(va: vec3, vb: vec3, inv_ma, inv_mb, n: vec3, restitution, frict
 
 
 @ti.func
+def _mix(h):
+    """An integer hash of a u32 (multiply-xorshift rounds)."""
+    h ^= h >> 16
+    h *= ti.u32(0x7FEB352D)
+    h ^= h >> 15
+    h *= ti.u32(0x846CA68B)
+    h ^= h >> 16
+    return h
+
+
+@ti.func
+def coincident_axis(i, j) -> vec3:
+    """The normal from j to i of two particles whose centres coincide: a direction hashed from
+    the two indices, uniform on the sphere, opposite on the two sides. One fixed axis for every
+    such pair would push particles spawned on one point apart along a line (a column of them
+    standing on a floor) instead of into a ball (docs/physics.md 5.2.1)."""
+    h = _mix(ti.cast(ti.min(i, j), ti.u32) * ti.u32(0x9E3779B1) + _mix(ti.cast(ti.max(i, j), ti.u32)))
+    z = ti.cast(h >> 8, float) * (2.0 / 16777216.0) - 1.0  # uniform on the sphere: z and an angle
+    phi = ti.cast(_mix(h) >> 8, float) * (2.0 * math.pi / 16777216.0)
+    across = ti.sqrt(ti.max(1.0 - z * z, 0.0))
+    return ti.select(i < j, -1.0, 1.0) * vec3(across * ti.cos(phi), across * ti.sin(phi), z)
+
+
+@ti.func
 def pair_normal(xi: vec3, xj: vec3, i, j):
-    """Unit normal from j to i; coincident centres get a fixed axis whose sign depends on
-    the index order, so the two sides still see opposite normals. Branch-free (the passes
-    call it for every listed neighbour)."""
+    """Unit normal from j to i and the distance; coincident centres (within TINY) get
+    coincident_axis(i, j), so the two sides still see opposite normals. The hash sits behind
+    a branch that particles apart never take (the passes call this for every listed
+    neighbour)."""
     d = xi - xj
     dist = d.norm()
-    axis = vec3(0.0, ti.select(i < j, -1.0, 1.0), 0.0)
-    n = ti.select(dist > TINY, d / ti.max(dist, TINY), axis)
-    return n, dist
+    axis = vec3(0.0, 0.0, 0.0)
+    if dist <= TINY:
+        axis = coincident_axis(i, j)
+    return ti.select(dist > TINY, d / ti.max(dist, TINY), axis), dist

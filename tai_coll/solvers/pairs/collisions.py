@@ -102,7 +102,6 @@ class ParticleCollisions:
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._v_pushed = None  # the velocities entering the projection passes while allowances are left
-        self._held = None  # ... and which particles a pair holding an allowance moved in them
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -126,7 +125,7 @@ class ParticleCollisions:
         self.torque = None  # DEM pairs of spinning particles (see _loads)
         self._load_args = None
         self.changed = ti.ndarray(ti.i32, shape=1)
-        self.levels = self._v_pushed = self._held = None
+        self.levels = self._v_pushed = None
         self._largest = ti.ndarray(float, shape=1)
         self.lists.invalidate()
 
@@ -171,7 +170,7 @@ class ParticleCollisions:
             held.append(self.lists.listed_at)
         if self.torque is not None:
             held.append(self.torque)
-        held += [a for a in (self.levels, self._v_pushed, self._held) if a is not None]
+        held += [a for a in (self.levels, self._v_pushed) if a is not None]
         return held
 
     # ---------------------------------------------------------------- the grid and the store's order
@@ -252,14 +251,12 @@ class ParticleCollisions:
         if placed:
             if self._v_pushed is None:
                 self._v_pushed = ti.Vector.ndarray(3, float, shape=self.capacity)
-                self._held = ti.ndarray(ti.i32, shape=self.capacity)
             self._v_pushed.copy_from(self.v1)
-            self._held.fill(0)
         for k in range(settings.projection_iterations):
             if not self._projection_pass(particles, dt, placed, settings.max_push_speed * dt if k == 0 else 0.0):
                 break
         if placed:  # no more than max_push_speed from the separation of placed particles
-            cap_push_velocity(particles.args, self._v_pushed, self._held, settings.max_push_speed, self.v1)
+            cap_push_velocity(particles.args, self._v_pushed, settings.max_push_speed, self.v1)
         if settings.method == "gauss-seidel":
             levels = self._shock(world, solver, dt, placed)
             # a last velocity pass at the final positions: without it, particles jammed deep in
@@ -299,8 +296,7 @@ class ParticleCollisions:
         shock.support_levels(world, self.grid.lists, self.x1, self.levels, self.changed)
         for _ in range(shock.SHOCK_PASSES):
             gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, 1.0, dt, placed, 0.0,
-                                         self.changed, self.x1, self.v1, sleep=self._sleep, levels=self.levels,
-                                         held=self._held)
+                                         self.changed, self.x1, self.v1, sleep=self._sleep, levels=self.levels)
             if not self._changed():
                 break
         return self.levels
@@ -379,15 +375,14 @@ class ParticleCollisions:
         if self.settings.method == "gauss-seidel":
             gauss_seidel.projection_pass(particles.args, self.grid.args, self.grid.lists, self.settings.relaxation, dt,
                                          placed, push_distance, self.changed, self.x1, self.v1,
-                                         sleep=self._sleep, held=self._held)
+                                         sleep=self._sleep)
         else:
             # (v_start, the elastic pass's copy of v(t), is free once the velocity passes are done)
             jacobi.projection_pass(particles=particles.args, lists=self.grid.lists, contacts=self._counts[0],
                                    relaxation=self.settings.relaxation, dt=dt, placed=placed,
                                    push_distance=push_distance,
                                    dx=self.delta, dx_followed=self.v_start, contacts_now=self._counts[1],
-                                   changed=self.changed, x1=self.x1, v1=self.v1,
-                                   held=self._held if placed else self.changed)
+                                   changed=self.changed, x1=self.x1, v1=self.v1)
         return self._passed()
 
     def _changed(self) -> bool:

@@ -142,7 +142,7 @@ SETTLE_TOUCH = 1e-4
 def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(), i,
                     lists: ti.template(), particles: ti.template(), restitution, friction, wet_friction,
                     wet_law: ti.template(), relaxation, dt, push_distance, wake_speed, levels: ti.template(),
-                    v_test: ti.template(), x1: ti.template(), v1: ti.template(), held: ti.template()) -> ti.i32:
+                    v_test: ti.template(), x1: ti.template(), v1: ti.template()) -> ti.i32:
     """_pass's work on particle i: its pairs of the forward lists, one after the other, each
     seeing the changes of those before it (the arguments as _pass's). Returns 1 if any pair had
     something to do, else 0."""
@@ -155,7 +155,6 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
     x_start = vec3(0.0)  # projection of placed particles: i's start position
     allowance_i = 0.0  # ... and its overlap allowance
     grown = 0.0  # ... and what it grows by in this pass
-    held_i = 0  # ... and whether a pair with an allowance moved it in this pass
     own = 0  # elastic: whether i's own pairs changed its velocity in this pass
     asleep_i = 0
     if ti.static(sleep):
@@ -199,9 +198,6 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
                                                     allowance_i + particles.allowance[j], push_distance)
                 if separate > 0.0:
                     found = 1
-                    if allowance_i + particles.allowance[j] > 0.0:
-                        held_i = 1
-                        held[j] = 1
                     move = (separate * relaxation) * nrm
                     push = move
                     if followed < separate:
@@ -238,8 +234,6 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
         v1[i] = v1[i] + moved / dt
         if ti.static(placed):
             particles.allowance[i] = particles.allowance[i] + grown
-            if held_i != 0:
-                held[i] = 1
     elif ti.static(mode == ELASTIC):
         if own != 0:
             # (only then: with fast math the compiler may reorder v1 + (vi - v_test) and leave
@@ -260,7 +254,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
           # outputs
           changed: ARRAY,
           # in-out
-          v_test: ARRAY, x1: ARRAY, v1: ARRAY, held: ARRAY):
+          v_test: ARRAY, x1: ARRAY, v1: ARRAY):
     """One pass over the pairs of the forward neighbour lists touching at the candidates x1,
     in colour order (see the module's notes; the grid: the sort the lists were built from);
     changed[0]: whether any pair had something to do. Modes:
@@ -273,8 +267,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
         some overlap allowance is left, see collisions.py), overlap a pair was placed with and
         still had at the start of the substep moves the candidates only (the start positions x
         stay, so colliders still see the whole path), by at most push_distance a substep: no
-        particle any speed; held[i] = 1 for each particle such a pair (one holding an allowance)
-        moved, which placement.cap_push_velocity then caps. v_test unused.
+        particle any speed. v_test unused.
     SETTLE (v_test is v1): the law (with restitution) on the velocities of the pairs touching
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
         the end of the substep carries approaching velocity into the next.
@@ -317,7 +310,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     for slot in range(begin, end):
                         found |= _particle_pairs(mode, placed, sleep, shock, grid.entries[slot], lists, particles,
                                                  restitution, friction, wet_friction, wet_law, relaxation, dt,
-                                                 push_distance, wake_speed, levels, v_test, x1, v1, held)
+                                                 push_distance, wake_speed, levels, v_test, x1, v1)
                 if found != 0 and changed[0] == 0:
                     changed[0] = 1
                 u = groups  # (units: done)
@@ -334,7 +327,7 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
     _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None, shock=False,
           **_layout(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
           push_distance=0.0, wake_speed=wake_speed or 0.0, levels=changed, changed=changed, v_test=v_test, x1=x1,
-          v1=v1, held=changed)
+          v1=v1)
 
 
 def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, wake_speed: float | None = None,
@@ -344,19 +337,15 @@ def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, w
     _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, shock=levels is not None, **_layout(),
           grid=grid, lists=lists, particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0,
           wake_speed=wake_speed or 0.0, levels=changed if levels is None else levels, changed=changed, v_test=v1,
-          x1=x1, v1=v1, held=changed)
+          x1=x1, v1=v1)
 
 
 def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed: bool, push_distance: float,
-                    changed, x1, v1, sleep: bool = False, levels=None, held=None):
+                    changed, x1, v1, sleep: bool = False, levels=None):
     """A projection pass over the pairs of the forward lists; placed: overlap allowances are
-    left, push_distance (m) of them may go this substep, and `held` (an int array, needed then)
-    gets 1 for each particle a pair holding an allowance moved; sleep: some particles may
-    sleep; levels: support levels (shock.py) or None; see _pass."""
-    if placed and held is None:
-        raise ValueError("held: a projection pass with placed particles marks them in this array; got None")
+    left, push_distance (m) of them may go this substep; sleep: some particles may sleep;
+    levels: support levels (shock.py) or None; see _pass."""
     _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, **_layout(), grid=grid,
           lists=lists, particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0,
           relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0,
-          levels=changed if levels is None else levels, changed=changed, v_test=v1, x1=x1, v1=v1,
-          held=changed if held is None else held)
+          levels=changed if levels is None else levels, changed=changed, v_test=v1, x1=x1, v1=v1)

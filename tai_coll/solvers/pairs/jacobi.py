@@ -88,7 +88,7 @@ def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, r
                     # outputs
                     dx: ARRAY, dx_followed: ARRAY, contacts_now: ARRAY, changed: ARRAY,
                     # in-out
-                    x1: ARRAY, v1: ARRAY, held: ARRAY):
+                    x1: ARRAY, v1: ARRAY):
     """One projection pass at the candidates x1, then its result applied. dx_i = sum over
     overlapping neighbours j of particle i's share of moving the pair apart, split by
     inverse mass; changed[0]: whether some pair had overlap to remove (0: nothing left to
@@ -97,8 +97,7 @@ def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, r
     v1 += dx / dt. With placed particles (placed: some overlap allowance is left), overlap a
     pair was placed with and still had at the start of the substep (at x) moves positions only,
     the candidates only (the velocity does not follow), by at most push_distance a
-    substep: the velocity follows dx_followed, the rest (docs/physics.md 5); held[i] gets 1
-    where a pair holding an allowance moved particle i (placed only: see cap_push_velocity)."""
+    substep: the velocity follows dx_followed, the rest (docs/physics.md 5)."""
     # the positions a pass reads are those before it: dx is applied in a second loop
     changed[0] = 0
     for i in range(particles.count):
@@ -126,8 +125,6 @@ def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, r
                                                      particles.allowance[i] + particles.allowance[j], push_distance)
                 part = pair_share(contacts, i, j, relaxation) * particles.mass[j] / (mi + particles.mass[j])
                 moving = touching & (separate > 0.0)
-                if moving and particles.allowance[i] + particles.allowance[j] > 0.0:
-                    held[i] = 1
                 acc += ti.select(moving, part * separate, 0.0) * nrm
                 followed += ti.select(moving, part * developed, 0.0) * nrm
                 separating += ti.cast(moving, ti.i32)

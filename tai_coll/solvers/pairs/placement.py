@@ -19,8 +19,8 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
 - DEM pairs (dem.py): the spring law acts on the overlap beyond the allowances, and at the end
   of each substep `separate` removes the placed part of the overlap by positions only, at most
   max_push_speed * dt a substep, one Jacobi pass so that crowds converge (coincident centres
-  get a direction per pair, `separation_normal`, so a crowd spawned on one point spreads into a
-  ball). The allowances then follow the overlap left, never more than half a particle's
+  get a direction per pair, response.laws.coincident_axis, so a crowd spawned on one point
+  spreads into a ball). The allowances then follow the overlap left, never more than half a particle's
   deepest overlap: the springs are pressed only by overlap that develops during the run, never
   by placed overlap the separation has not had time to remove (a fixed shrink, as for impulse
   pairs, pressed the springs of crowds faster than they could get apart, and the energy they
@@ -33,12 +33,11 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
 """
 
 import functools
-import math
 
 import taichi as ti
 
 from ...neighbors.hash_grid import cell_of, query_span, query_spans
-from ...response.laws import TINY
+from ...response.laws import TINY, pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, GridArgs, ListArgs, ParticleArgs, vec3
 from ..detection import BOUND_SLOT, collider_sdf
 
@@ -142,16 +141,15 @@ def shrink_allowances(n: int, amount: float, allowance, work) -> float:
 
 
 @ti.kernel
-def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, held: ARRAY, cap: float,
+def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, cap: float,
                       # in-out
                       v1: ARRAY):
-    """A particle with an overlap allowance, or moved in the projection passes by a pair holding
-    one (held[i] != 0: a neighbour whose allowance ran out, into which a placed particle was
-    pushed), leaves the passes no faster than `cap` (m/s) or than it entered them (v_before),
-    whichever is more: the rest of its separation goes by positions only. (Capping what one
-    substep adds would let a crowd's pushes add up over the substeps.)"""
+    """A particle with an overlap allowance leaves the projection passes no faster than `cap`
+    (m/s) or than it entered them (v_before), whichever is more: the rest of its separation
+    goes by positions only. (Capping what one substep adds would let a crowd's pushes add up
+    over the substeps.)"""
     for i in range(particles.count):
-        if particles.allowance[i] > 0.0 or held[i] != 0:
+        if particles.allowance[i] > 0.0:
             speed = v1[i].norm()
             limit = ti.max(v_before[i].norm(), cap)
             if speed > limit:
@@ -161,34 +159,6 @@ def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, held: ARRAY, cap
 # ---------------------------------------------------------------- DEM pairs: the separation
 # the separation's walks over each particle's neighbours (see _visit)
 _COUNT, _PUSH, _LEFT = 0, 1, 2
-
-
-@ti.func
-def _mix(h):
-    """An integer hash of a u32 (multiply-xorshift rounds)."""
-    h ^= h >> 16
-    h *= ti.u32(0x7FEB352D)
-    h ^= h >> 15
-    h *= ti.u32(0x846CA68B)
-    h ^= h >> 16
-    return h
-
-
-@ti.func
-def separation_normal(xi: vec3, xj: vec3, i, j):
-    """Unit normal from j to i and the distance, as response.laws.pair_normal, except that
-    coincident centres get an axis of their own for every pair (a direction hashed from the
-    two indices, opposite on the two sides): with pair_normal's one fixed axis, particles
-    spawned on one point would be pushed apart along a line, a thousand of them into a row
-    metres long, instead of into a ball (docs/physics.md 5.2.1)."""
-    d = xi - xj
-    dist = d.norm()
-    h = _mix(ti.cast(ti.min(i, j), ti.u32) * ti.u32(0x9E3779B1) + _mix(ti.cast(ti.max(i, j), ti.u32)))
-    z = ti.cast(h >> 8, float) * (2.0 / 16777216.0) - 1.0  # uniform on the sphere: z and an angle
-    phi = ti.cast(_mix(h) >> 8, float) * (2.0 * math.pi / 16777216.0)
-    across = ti.sqrt(ti.max(1.0 - z * z, 0.0))
-    axis = ti.select(i < j, -1.0, 1.0) * vec3(across * ti.cos(phi), across * ti.sin(phi), z)
-    return ti.select(dist > TINY, d / ti.max(dist, TINY), axis), dist
 
 
 @ti.func
@@ -204,7 +174,7 @@ def _visit(stage: ti.template(), i, j, xi: vec3, ri, ai, particles: ti.template(
     aj = particles.allowance[j]
     reach = ri + rj
     allowances = ai + aj
-    nrm, dist = separation_normal(xi, particles.x[j], i, j)
+    nrm, dist = pair_normal(xi, particles.x[j], i, j)
     overlap = ti.max(reach - dist, 0.0)
     if ti.static(stage == _COUNT or stage == _PUSH):
         # the placed part of the overlap, what the pair's allowances cover (the spring presses the rest)
