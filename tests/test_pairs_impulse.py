@@ -71,10 +71,10 @@ def test_newtons_cradle_passes_the_velocity_down_the_row():
 
 @pytest.mark.parametrize("method", ["gauss-seidel", "jacobi"])
 def test_coincident_centres_are_separated_keeping_momentum(method):
-    # Two particles placed at one point (no normal from their centres: the pair's hashed
-    # axis, response.laws.coincident_axis), moving with one velocity: overlap they start with is not a collision. It goes by
-    # positions only, exactly max_push_speed * dt a substep, and their velocities stay as they
-    # were; the centre of mass moves on with the momentum.
+    # Two particles placed at one point (no normal from their centres: the pair's hashed axis,
+    # response.laws.coincident_axis), moving with one velocity: overlap they start with is not a
+    # collision. It goes by positions only, exactly max_push_speed * dt a substep, and their
+    # velocities stay as they were; the centre of mass moves on with the momentum.
     ma, mb, r = 1.0, 3.0, 0.05
     v0 = np.array([0.3, 0.5, -0.1])
     scene = pair_scene(restitution=0.5, friction=0.3, dt=1e-3, substeps=5, method=method)

@@ -81,10 +81,10 @@ def _layout() -> dict:
     info = runtime.info()
     if info.generation not in _claims:
         _claims.clear()
-        _claims[info.generation] = dict(claims=ClaimArgs(
+        _claims[info.generation] = ClaimArgs(
             workers=ti.lang.impl.current_cfg().cpu_max_num_threads if info.arch == "cpu" else 1,
-            next=ti.ndarray(ti.i32, shape=2)))
-    return dict(colouring(), **_claims[info.generation])
+            next=ti.ndarray(ti.i32, shape=2))
+    return dict(colouring(), claims=_claims[info.generation])
 
 
 @ti.func

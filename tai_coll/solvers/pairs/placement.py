@@ -20,8 +20,8 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
   of each substep `separate` removes the placed part of the overlap by positions only, at most
   max_push_speed * dt a substep, one Jacobi pass so that crowds converge (coincident centres
   get a direction per pair, response.laws.coincident_axis, so a crowd spawned on one point
-  spreads into a ball). The allowances then follow the overlap left, never more than half a particle's
-  deepest overlap: the springs are pressed only by overlap that develops during the run, never
+  spreads into a ball). The allowances then follow the overlap left, never more than half a
+  particle's deepest overlap: the springs are pressed only by overlap that develops during the run, never
   by placed overlap the separation has not had time to remove (a fixed shrink, as for impulse
   pairs, pressed the springs of crowds faster than they could get apart, and the energy they
   stored threw 1,000 particles spawned on one point out at 120 m/s). An approach the springs do
