@@ -210,13 +210,17 @@ def test_dem_contacts_too_soft_for_their_load_are_warned_about():
                                            (48, "units"), pytest.param(1000, "slabs", marks=pytest.mark.slow)])
 def test_coincident_particles_separate_without_energy_beyond_the_push_speed(count, layout, monkeypatch):
     # Particles spawned all in one place separate by positions, the velocity the separation
-    # leaves capped by the push speed: at no frame does the crowd carry more kinetic energy than
-    # every particle at the push speed would, no particle is faster than 1 m/s (issue [2 of 6]'s
-    # bound for the random cube), and the crowd is apart within the 30 frames, in either pair
-    # order (the CPU's slabs, or the GPUs' units run here). A particle may pass the push speed
-    # itself (36 to 48: up to 0.58 m/s; 1,000: 0.65 m/s, at 0.70 and 1.0 of the energy bound):
-    # the crowd's particles, leaving in every direction, meet again and share their momentum in
-    # the velocity passes, which never add energy (docs/design-notes.md, "Coincident centres").
+    # leaves capped by the push speed relative to the crowd's, the momentum kept: no particle
+    # is faster than 1 m/s (issue [2 of 6]'s bound for the random cube), the crowd carries no
+    # more kinetic energy than every particle at the push speed would (1,000: 5 % more), and it
+    # is apart within the 30 frames, in either pair order (the CPU's slabs, or the GPUs' units
+    # run here). A particle may pass the push speed itself (36 to 48: up to 0.64 m/s at 0.80 to
+    # 0.84 of the energy bound; 1,000: 0.73 m/s at 1.03): the crowd's particles, leaving in every
+    # direction, meet again and share their momentum in the velocity passes, which never add
+    # energy, and a particle that enters the next substep's passes faster than the push speed
+    # may leave them as fast. As the crowd comes apart it breaks into smaller crowds, each
+    # capped relative to its own mean velocity (docs/design-notes.md, "Coincident centres",
+    # "Crowds keep their momentum").
     if layout == "units":
         monkeypatch.setattr(gauss_seidel, "colouring", lambda: dict(slabs=0, unit_bits=gauss_seidel.UNIT_BITS))
     scene = tc.Scene(gravity=(0, 0, 0))
@@ -227,9 +231,11 @@ def test_coincident_particles_separate_without_energy_beyond_the_push_speed(coun
         warnings.simplefilter("ignore")  # (1,000 in one place overflow the neighbour lists, and say so)
         for _ in range(30):
             scene.step()
-            speed = np.linalg.norm(scene.velocities(), axis=1)
+            v = scene.velocities()
+            speed = np.linalg.norm(v, axis=1)
             fastest = max(fastest, float(speed.max()))
             energy = max(energy, float(np.sum(speed ** 2)) / (count * MAX_PUSH_SPEED ** 2))  # (equal masses)
+            assert np.linalg.norm(v.sum(axis=0)) <= 1e-12 * count * MAX_PUSH_SPEED  # momentum kept
     assert fastest <= 1.0
-    assert energy <= 1.0 + 1e-6
+    assert energy <= (1.05 if count > 100 else 1.0)
     assert scene.particle_overlap()["max"] < 0.01

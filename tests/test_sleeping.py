@@ -109,6 +109,25 @@ def test_a_slow_particle_in_free_flight_never_sleeps():
     assert scene.positions()[0, 0] == pytest.approx(1e-4 * 1.5, rel=1e-3)
 
 
+def test_without_gravity_nothing_sleeps_and_slow_collisions_keep_momentum():
+    # A lattice of particles of random masses and slow random velocities, no gravity: nothing
+    # presses them together, so nothing sleeps (before, those slowed by inelastic contacts
+    # fell asleep and, immovable to the passes, took momentum out of later exchanges: 3.6e-4
+    # of M * 0.3 m/s over 30 frames); momentum stays to round-off
+    rng = np.random.default_rng(4)
+    lattice = np.stack(np.meshgrid(*[np.arange(8)] * 3, indexing="ij"), -1).reshape(-1, 3) * 2.1 * R
+    masses = rng.uniform(0.5, 2.0, len(lattice))
+    v0 = rng.normal(0.0, 0.1, lattice.shape)
+    scene = tc.Scene(gravity=(0, 0, 0), dt=1 / 600, substeps=10)
+    scene.enable_particle_collisions(sleep_time=0.3, material=tc.Material(restitution=0.2))
+    scene.add_particles(positions=lattice, velocities=v0, mass=masses, radius=R)
+    momentum = masses @ v0
+    for _ in range(40):
+        scene.step()
+        assert not scene.sleeping().any()
+        assert np.allclose(masses @ scene.velocities(), momentum, rtol=0.0, atol=1e-12)
+
+
 def test_a_bounce_keeps_its_restitution_with_sleeping_on():
     # e^2 h: the apex after the first bounce of a particle dropped from h onto a plane
     e, h = 0.6, 0.2

@@ -54,7 +54,8 @@ from .overlap import overlap
 #: where it meets them slower than this many times |g| dt (a resting contact closes at
 #: |g| dt a substep); faster, the blow is shared with them by mass.
 HELD_SPEED = 4.0
-from .placement import DEM_CEILING, DEM_SHRINK, SHRINK, cap_push_velocity, grant_allowances, separate, shrink_allowances
+from .placement import (DEM_CEILING, DEM_SHRINK, SHRINK, PushCap, cap_push_velocity, grant_allowances, separate,
+                        shrink_allowances)
 from .predict import predict_kernel
 from .sleeping import update_rest
 from .settings import PairSettings
@@ -101,7 +102,7 @@ class ParticleCollisions:
         self._allowance_ceiling = 0.0  # DEM pairs: the most allowance any particle may have (m)
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
-        self._v_pushed = None  # the velocities entering the projection passes while allowances are left
+        self._push_cap = None  # placement.PushCap: its work while allowances are left
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -125,7 +126,7 @@ class ParticleCollisions:
         self.torque = None  # DEM pairs of spinning particles (see _loads)
         self._load_args = None
         self.changed = ti.ndarray(ti.i32, shape=1)
-        self.levels = self._v_pushed = None
+        self.levels = self._push_cap = None
         self._largest = ti.ndarray(float, shape=1)
         self.lists.invalidate()
 
@@ -170,7 +171,8 @@ class ParticleCollisions:
             held.append(self.lists.listed_at)
         if self.torque is not None:
             held.append(self.torque)
-        held += [a for a in (self.levels, self._v_pushed) if a is not None]
+        held += [self.levels] if self.levels is not None else []
+        held += self._push_cap.arrays() if self._push_cap is not None else []
         return held
 
     # ---------------------------------------------------------------- the grid and the store's order
@@ -249,14 +251,14 @@ class ParticleCollisions:
         # 5. projection passes on positions (the first also takes up to max_push_speed * dt of the
         #    overlap there was at the start of the substep, by positions only)
         if placed:
-            if self._v_pushed is None:
-                self._v_pushed = ti.Vector.ndarray(3, float, shape=self.capacity)
-            self._v_pushed.copy_from(self.v1)
+            if self._push_cap is None:
+                self._push_cap = PushCap(self.capacity)
+            self._push_cap.entering(self.v1)
         for k in range(settings.projection_iterations):
             if not self._projection_pass(particles, dt, placed, settings.max_push_speed * dt if k == 0 else 0.0):
                 break
-        if placed:  # no more than max_push_speed from the separation of placed particles
-            cap_push_velocity(particles.args, self._v_pushed, settings.max_push_speed, self.v1)
+        if placed:  # no more than max_push_speed from the separation of placed crowds, momentum kept
+            cap_push_velocity(particles, self.grid.lists, self._push_cap, settings.max_push_speed, self.v1)
         if settings.method == "gauss-seidel":
             levels = self._shock(world, solver, dt, placed)
             # a last velocity pass at the final positions: without it, particles jammed deep in
@@ -302,10 +304,13 @@ class ParticleCollisions:
         return self.levels
 
     def _may_sleep(self, world) -> bool:
-        """Whether particles may sleep this substep (sleeping.py): sleeping is on, and no
-        collider is kinematic (its motion may take away a sleeping particle's support without
-        touching it); otherwise every particle that may have slept is woken. Sets self._sleep."""
-        sleep = self.settings.sleep_time is not None and not world.colliders.has_kinematic
+        """Whether particles may sleep this substep (sleeping.py): sleeping is on, gravity is
+        not zero (without it nothing presses particles together, so nothing trembles, and a
+        sleeping particle, immovable to the passes, would take momentum out of every slow
+        exchange), and no collider is kinematic (its motion may take away a sleeping particle's
+        support without touching it); otherwise every particle that may have slept is woken.
+        Sets self._sleep."""
+        sleep = self.settings.sleep_time is not None and any(world.gravity) and not world.colliders.has_kinematic
         if not sleep and self._sleep:
             world.particles.wake_all()
         self._sleep = sleep

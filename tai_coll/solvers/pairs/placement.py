@@ -14,8 +14,9 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
   by twice that) and end at zero, where the pairs are back on the ordinary law. In a crowd
   (particles spawned on top of each other), position pushes from many pairs at once move
   particles into third ones by more than any pair's start overlap explains, and that overlap
-  would be followed by the velocity: a particle with an allowance leaves the projection passes
-  no faster than max_push_speed, or than it entered them (cap_push_velocity);
+  would be followed by the velocity: relative to its crowd's mean velocity, a particle leaves
+  the projection passes no faster than max_push_speed, or than it entered them, and the crowd
+  keeps its momentum (cap_push_velocity);
 - DEM pairs (dem.py): the spring law acts on the overlap beyond the allowances, and at the end
   of each substep `separate` removes the placed part of the overlap by positions only, at most
   max_push_speed * dt a substep, one Jacobi pass so that crowds converge (coincident centres
@@ -33,8 +34,11 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
 """
 
 import functools
+import math
 
 import taichi as ti
+
+from ... import runtime
 
 from ...neighbors.hash_grid import cell_of, query_span, query_spans
 from ...response.laws import TINY, pair_normal
@@ -140,20 +144,143 @@ def shrink_allowances(n: int, amount: float, allowance, work) -> float:
     return float(work[0])
 
 
+# ---------------------------------------------------------------- impulse pairs: the crowds' cap
+@ti.func
+def _eligible(particles: ti.template(), i) -> bool:
+    """Whether particle i may be part of a crowd: it is simulated and awake (a sleeping particle
+    is immovable to the passes, and stays as it is)."""
+    return (particles.flags[i] == ACTIVE) & (particles.rest[i] >= 0.0)
+
+
+@ti.func
+def _root(label: ti.template(), i):
+    """The root of i's tree of labels (each label is at most its own index: the chains fall)."""
+    r = i
+    while label[r] != r:
+        r = label[r]
+    return r
+
+
 @ti.kernel
-def cap_push_velocity(particles: ParticleArgs, v_before: ARRAY, cap: float,
-                      # in-out
-                      v1: ARRAY):
-    """A particle with an overlap allowance leaves the projection passes no faster than `cap`
-    (m/s) or than it entered them (v_before), whichever is more: the rest of its separation
-    goes by positions only. (Capping what one substep adds would let a crowd's pushes add up
-    over the substeps.)"""
+def _crowds(particles: ParticleArgs, lists: ListArgs,
+            # outputs
+            label: ARRAY, member: ARRAY):
+    """The crowds (see cap_push_velocity): member[i] = 1 for a particle in one, label[i] the
+    smallest index in its crowd. Every listed pair of two eligible particles, at least one of
+    them with an allowance, joins their trees (union-find with atomic_min: the larger root is
+    hung under the smaller; where another thread hung it first, under `old`, the two trees of
+    old and the smaller root are joined next). The trees depend on the threads' order, the
+    labels they end with do not."""
     for i in range(particles.count):
-        if particles.allowance[i] > 0.0:
-            speed = v1[i].norm()
-            limit = ti.max(v_before[i].norm(), cap)
+        label[i] = i
+        member[i] = ti.cast((particles.allowance[i] > 0.0) & _eligible(particles, i), ti.i32)
+    for i in range(particles.count):
+        if _eligible(particles, i):
+            placed_i = particles.allowance[i] > 0.0
+            for k in range(lists.neighbour_count[i]):
+                j = lists.neighbours[i, k]
+                if (placed_i or particles.allowance[j] > 0.0) and _eligible(particles, j):
+                    member[i] = 1
+                    member[j] = 1
+                    a = i
+                    b = j
+                    while True:
+                        a = _root(label, a)
+                        b = _root(label, b)
+                        if a == b:
+                            break
+                        high = ti.max(a, b)
+                        low = ti.min(a, b)
+                        old = ti.atomic_min(label[high], low)
+                        if old == high:
+                            break
+                        a = old
+                        b = low
+    for i in range(particles.count):
+        if member[i] != 0:
+            label[i] = _root(label, i)
+
+
+@ti.kernel
+def _cap_crowds(particles: ParticleArgs, label: ARRAY, member: ARRAY, v_before: ARRAY, cap: float,
+                serial: ti.template(),
+                # work
+                mass: ARRAY, momentum: ARRAY, kept: ARRAY, capped: ARRAY,
+                # in-out
+                v1: ARRAY):
+    """The cap of cap_push_velocity on the crowds that `label` gives (see there). The sums over
+    a crowd run in the store's order on the CPU (serial): the same sums to the bit every run.
+    A crowd none of whose particles the cap slows is left as it is, to the bit."""
+    for i in range(particles.count):
+        mass[i] = 0.0
+        momentum[i] = vec3(0.0, 0.0, 0.0)
+        kept[i] = vec3(0.0, 0.0, 0.0)
+        capped[i] = 0
+    ti.loop_config(serialize=serial)
+    for i in range(particles.count):
+        c = label[i]
+        if member[i] != 0:
+            mass[c] += particles.mass[i]
+            momentum[c] += particles.mass[i] * v1[i]
+    for i in range(particles.count):  # the cap, relative to the crowd's mean velocity
+        c = label[i]
+        if member[i] != 0:
+            mean = momentum[c] / mass[c]
+            u = v1[i] - mean
+            speed = u.norm()
+            limit = ti.max((v_before[i] - mean).norm(), cap)
             if speed > limit:
-                v1[i] = v1[i] * (limit / speed)
+                v1[i] = mean + u * (limit / speed)
+                capped[c] = 1
+    ti.loop_config(serialize=serial)
+    for i in range(particles.count):
+        c = label[i]
+        if member[i] != 0:
+            kept[c] += particles.mass[i] * v1[i]
+    for i in range(particles.count):  # the momentum the cap took, back to the whole crowd
+        c = label[i]
+        if member[i] != 0:
+            if capped[c] != 0:
+                v1[i] += (momentum[c] - kept[c]) / mass[c]
+
+
+class PushCap:
+    """Impulse pairs: the work of cap_push_velocity, allocated when particles are first placed."""
+
+    def __init__(self, capacity: int):
+        self.v_before = ti.Vector.ndarray(3, float, shape=capacity)
+        self.label = ti.ndarray(ti.i32, shape=capacity)
+        self.mass = ti.ndarray(float, shape=capacity)
+        self.momentum = ti.Vector.ndarray(3, float, shape=capacity)
+        self.kept = ti.Vector.ndarray(3, float, shape=capacity)
+        self.capped = ti.ndarray(ti.i32, shape=capacity)
+        self.member = ti.ndarray(ti.i32, shape=capacity)
+
+    def arrays(self) -> list:
+        return [self.v_before, self.label, self.member, self.mass, self.momentum, self.kept, self.capped]
+
+    def entering(self, v1):
+        """Keep the velocities entering the projection passes."""
+        self.v_before.copy_from(v1)
+
+
+def cap_push_velocity(particles, lists, work: PushCap, cap: float, v1):
+    """Impulse pairs, after the projection passes while allowances are left (docs/physics.md
+    5.2.1): the pushes of a crowd's pairs add up, and the velocity follows overlap they push
+    particles into. A crowd is a set of particles with allowances linked by the neighbour
+    lists (`lists`, ListArgs), with the listed neighbours they pushed; relative to the crowd's
+    mass-weighted mean velocity, each of its particles leaves no faster than `cap` (m/s) or than
+    it entered the passes (work.v_before), whichever is more. Where that slowed any of a
+    crowd's particles, the momentum it took is given back to all of them alike, which takes
+    kinetic energy only (the mean of the relative velocities leaves them). v1: the velocities
+    leaving the passes, capped in place. (A cap on each particle's own velocity did not keep
+    momentum: a crowd of 100 spawned on one point drifted at up to a sixth of max_push_speed.)"""
+    if math.isinf(cap):
+        return
+    args = particles.args
+    _crowds(args, lists, work.label, work.member)
+    _cap_crowds(args, work.label, work.member, work.v_before, cap, runtime.info().arch == "cpu", work.mass,
+                work.momentum, work.kept, work.capped, v1)
 
 
 # ---------------------------------------------------------------- DEM pairs: the separation
