@@ -41,7 +41,7 @@ META_KEY = "__meta__"
 #: packs, host caches, work arrays rebuilt on demand.
 RESET = {
     "store": {"_args", "_spin_args", "_slots_host", "_spare", "_w_spare", "_largest"},
-    "pairs": {"_law", "_load_args"},
+    "pairs": {"_law", "_load_args", "_push_cap"},
     "grid": {"_args", "_lists", "_bounds"},
     "lists": {"_args"},
     "springs": {"_packs"},
