@@ -477,3 +477,36 @@ def test_material_static_friction():
         tc.Material(static_friction=-0.1)
     with pytest.raises(TypeError):
         tc.Material(0.5)
+
+
+# ---------------------------------------------------------------- particles placed inside colliders
+@pytest.mark.parametrize("pairs", [False, True])
+def test_particles_placed_inside_a_collider_are_warned_about_before_they_move(pairs):
+    # A penalty contact has no allowance for overlap a particle was placed with: placed 1 cm
+    # into a floor (r = 5 mm, hertz=200), the spring throws it out at 4.6 m/s, 1.1 m high
+    # (docs/design-notes.md, "Crowds keep their momentum"). The scene says so before the first
+    # step moves it, with the depth and the undamped exit speed, 0.01 m * 2 pi 200 Hz.
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=200.0), substeps="auto")
+    scene.add_collider(tc.Plane())
+    scene.add_particles(positions=[[0.0, -0.005, 0.0], [0.1, 0.005, 0.0]], radius=0.005)
+    if pairs:
+        scene.enable_particle_collisions()
+    with pytest.warns(RuntimeWarning, match=r"placed inside colliders, up to 0\.01 m deep.* 12\.6 m/s"):
+        scene.step()
+    assert scene.positions()[0, 1] > -0.005  # (it has started to move out)
+
+
+def test_particles_placed_resting_on_or_clear_of_colliders_are_not_warned_about():
+    # touching the floor, 1e-5 m in (the contact's own resting depth under gravity is 6 um), or
+    # moved clear by set_positions: nothing to say
+    scene = tc.Scene(solver=tc.PenaltySolver(hertz=200.0), substeps="auto")
+    scene.add_collider(tc.Plane())
+    scene.add_particles(positions=[[0.0, 0.005, 0.0], [0.1, 0.005 - 1e-5, 0.0]], radius=0.005)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene.step(5)
+        scene.set_positions(scene.positions() + (0.0, 0.01, 0.0))
+        scene.step(5)
+    scene.set_positions(scene.positions() - (0.0, 0.03, 0.0))  # moved 1.5 cm into the floor
+    with pytest.warns(RuntimeWarning, match="placed inside colliders"):
+        scene.step()

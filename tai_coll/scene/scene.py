@@ -83,6 +83,7 @@ class Scene:
         self._limits = None  # the solver's (recommended dt, stability limit), or None (_check_solver)
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
+        self._placed_checked = None  # (placed_from, count, host_writes) when placed particles were last checked
         self._warned_dropped = False  # whether full neighbour lists were warned about (once)
         self._warned_crushed = False  # whether DEM overlap beyond CRUSHED_OVERLAP was warned about (once)
 
@@ -267,6 +268,7 @@ class Scene:
         emitting = bool(self._emitters)
         for _ in range(frames):
             self._check_solver()
+            self._check_placed()
             if self._stepping.auto:
                 self._choose_substeps()
             world = self._world
@@ -315,6 +317,20 @@ class Scene:
             for message in self.solver.check(self._world, self.dt):
                 self._warn_once(message)
         self._watch_stability()
+
+    def _check_placed(self):
+        """Let a solver that has no allowance for particles placed inside colliders (the
+        penalty solver) look at those placed since it last looked, before they move."""
+        store = self._particles
+        check = getattr(self.solver, "check_placed", None)
+        if check is None or store.placed_from is None:
+            return
+        key = (store.placed_from, store.count, store.host_writes)
+        if key != self._placed_checked:
+            self._placed_checked = key
+            message = check(self._world, store.placed_from)
+            if message is not None:
+                self._warn_once(message)
 
     def _warn_once(self, message: str):
         if message not in self._solver_warned:
