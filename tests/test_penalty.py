@@ -378,15 +378,16 @@ def test_recommended_dt_is_stable_and_five_times_it_is_warned_about():
 
 def test_non_finite_run_names_particles_and_suggests_dt():
     # Between a floor and a ceiling 4 cm apart, undamped, at 3x the explicit stability
-    # limit: particle 1 (touching the floor) is thrown between them, gaining energy every
-    # step, and goes non-finite; particle 0, just touching neither, stays. The error names
-    # particle 1 and the recommended dt.
+    # limit: particle 1 (4 mm into the floor: its spring gives it up to 0.4 m/s, under the
+    # 0.5 m/s beyond which placed particles are moved out) is thrown between them, gaining
+    # energy every step, and goes non-finite; particle 0, just touching neither, stays. The
+    # error names particle 1 and the recommended dt.
     solver = tc.PenaltySolver(stiffness=1e4, damping=0.0)
     contact = solver.contact_params(1.0)
     scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=3 * contact.stability_limit, substeps=10, solver=solver)
     scene.add_collider(tc.Plane(**FLOOR))
     scene.add_collider(tc.Plane(point=(0.0, 0.04, 0.0), normal=(0.0, -1.0, 0.0)))
-    scene.add_particles(positions=[[0.0, 0.02, 0.0], [0.1, 0.015, 0.0]], radius=R, mass=1.0)
+    scene.add_particles(positions=[[0.0, 0.02, 0.0], [0.1, 0.016, 0.0]], radius=R, mass=1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         # (the run is stopped as diverging, naming the dt to use, before it turns NaN)
@@ -481,32 +482,40 @@ def test_material_static_friction():
 
 # ---------------------------------------------------------------- particles placed inside colliders
 @pytest.mark.parametrize("pairs", [False, True])
-def test_particles_placed_inside_a_collider_are_warned_about_before_they_move(pairs):
+def test_particles_placed_inside_colliders_are_moved_out_without_speed(pairs):
     # A penalty contact has no allowance for overlap a particle was placed with: placed 1 cm
-    # into a floor (r = 5 mm, hertz=200), the spring throws it out at 4.6 m/s, 1.1 m high
-    # (docs/design-notes.md, "Crowds keep their momentum"). The scene says so before the first
-    # step moves it, with the depth and the undamped exit speed, 0.01 m * 2 pi 200 Hz.
+    # into a floor (r = 5 mm, hertz=200), the spring threw it out at 4.6 m/s, 1.1 m high, and
+    # 2 cm in at 9.3 m/s (docs/design-notes.md, "Particles placed inside colliders"). Such
+    # particles are moved out onto the surface before the first step; their velocity stays.
     scene = tc.Scene(solver=tc.PenaltySolver(hertz=200.0), substeps="auto")
     scene.add_collider(tc.Plane())
-    scene.add_particles(positions=[[0.0, -0.005, 0.0], [0.1, 0.005, 0.0]], radius=0.005)
+    scene.add_collider(tc.Box(center=(0.3, 0.05, 0.0), half_extents=(0.05, 0.05, 0.05)))
+    scene.add_particles(positions=[[0.0, -0.005, 0.0], [0.3, 0.08, 0.0], [0.1, 0.005, 0.0]], radius=0.005,
+                        velocities=[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.2, 0.0, 0.0]])
     if pairs:
         scene.enable_particle_collisions()
-    with pytest.warns(RuntimeWarning, match=r"placed inside colliders, up to 0\.01 m deep.* 12\.6 m/s"):
+    fastest, highest = 0.0, np.zeros(3)
+    for _ in range(30):
         scene.step()
-    assert scene.positions()[0, 1] > -0.005  # (it has started to move out)
+        fastest = max(fastest, float(np.linalg.norm(scene.velocities()[:2], axis=1).max()))
+        highest = np.maximum(highest, scene.positions()[:, 1])
+    assert fastest < 0.05
+    assert highest[0] == pytest.approx(0.005, abs=1e-4)  # onto the floor, and resting there
+    assert highest[1] == pytest.approx(0.105, abs=1e-4)  # out of the box by its top face (the nearest)
+    # the third, placed on the floor with 0.2 m/s, slides as given: v^2 / (2 mu g) = 6.8 mm (mu = 0.3)
+    assert scene.positions()[2, 0] == pytest.approx(0.1 + 0.2 ** 2 / (2 * 0.3 * G), abs=1e-3)
 
 
-def test_particles_placed_resting_on_or_clear_of_colliders_are_not_warned_about():
-    # touching the floor, 1e-5 m in (the contact's own resting depth under gravity is 6 um), or
-    # moved clear by set_positions: nothing to say
+def test_a_resting_depth_placed_on_purpose_stays():
+    # particles placed at the contact's resting depth (here 1e-4 m, whose spring throws out at
+    # 0.13 m/s, below the 0.5 m/s where place_out acts) keep their positions; moved 1.5 cm
+    # into the floor by set_positions, they are moved out again
     scene = tc.Scene(solver=tc.PenaltySolver(hertz=200.0), substeps="auto")
     scene.add_collider(tc.Plane())
-    scene.add_particles(positions=[[0.0, 0.005, 0.0], [0.1, 0.005 - 1e-5, 0.0]], radius=0.005)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        scene.step(5)
-        scene.set_positions(scene.positions() + (0.0, 0.01, 0.0))
-        scene.step(5)
-    scene.set_positions(scene.positions() - (0.0, 0.03, 0.0))  # moved 1.5 cm into the floor
-    with pytest.warns(RuntimeWarning, match="placed inside colliders"):
-        scene.step()
+    scene.add_particles(positions=[[0.0, 0.005 - 1e-4, 0.0]], radius=0.005)
+    scene.step()
+    assert scene.positions()[0, 1] < 0.005
+    scene.set_positions(scene.positions() - (0.0, 0.015, 0.0))
+    scene.step()
+    assert scene.positions()[0, 1] == pytest.approx(0.005, abs=1e-4)
+    assert np.linalg.norm(scene.velocities()) < 0.05

@@ -83,7 +83,7 @@ class Scene:
         self._limits = None  # the solver's (recommended dt, stability limit), or None (_check_solver)
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
-        self._placed_checked = None  # (placed_from, count, host_writes) when placed particles were last checked
+        self._placed_checked = None  # (placed_from, count, host_writes) when placed particles were last moved out
         self._warned_dropped = False  # whether full neighbour lists were warned about (once)
         self._warned_crushed = False  # whether DEM overlap beyond CRUSHED_OVERLAP was warned about (once)
 
@@ -268,7 +268,7 @@ class Scene:
         emitting = bool(self._emitters)
         for _ in range(frames):
             self._check_solver()
-            self._check_placed()
+            self._place_out()
             if self._stepping.auto:
                 self._choose_substeps()
             world = self._world
@@ -318,19 +318,14 @@ class Scene:
                 self._warn_once(message)
         self._watch_stability()
 
-    def _check_placed(self):
-        """Let a solver that has no allowance for particles placed inside colliders (the
-        penalty solver) look at those placed since it last looked, before they move."""
+    def _place_out(self):
+        """The solver moves particles placed inside colliders since it last looked out of them
+        (Solver.place_out: the penalty solver's contacts would throw them out)."""
         store = self._particles
-        check = getattr(self.solver, "check_placed", None)
-        if check is None or store.placed_from is None:
-            return
         key = (store.placed_from, store.count, store.host_writes)
-        if key != self._placed_checked:
+        if store.placed_from is not None and key != self._placed_checked:
             self._placed_checked = key
-            message = check(self._world, store.placed_from)
-            if message is not None:
-                self._warn_once(message)
+            self.solver.place_out(self._world, store.placed_from)
 
     def _warn_once(self, message: str):
         if message not in self._solver_warned:

@@ -196,31 +196,42 @@ def penalty_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     return clearance
 
 
-#: Particles placed inside a collider deeper than its contact throws out slower than this
-#: (m/s, the pairs' default max_push_speed) are warned about (PenaltySolver.check_placed).
+#: Particles placed inside a collider so deep that its contact would throw them out faster than
+#: this (m/s, the pairs' default max_push_speed) are moved out onto its surface
+#: (PenaltySolver.place_out).
 PLACED_SPEED = 0.5
+#: Rounds of place_out's moves (a particle placed in a corner leaves one collider into another).
+PLACED_ROUNDS = 4
 
 
 @ti.kernel
-def _placed_depths(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), first: ti.i32,
-                   stiffness: float, stiffness_per_mass: ti.i32,
-                   # outputs
-                   out: ARRAY):
-    """Storage slots first.. at the colliders' start poses: out[0] the largest depth * sqrt(k/m)
-    (m/s: the speed an undamped contact would give the particle), out[1] the largest depth (m)."""
+def _place_out(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), first: ti.i32,
+               stiffness: float, stiffness_per_mass: ti.i32, speed: float,
+               # outputs
+               out: ARRAY):
+    """Storage slots first.. at the colliders' start poses: a particle inside a collider by a
+    depth whose undamped exit speed depth * sqrt(k/m) passes `speed` is moved out along the
+    normal onto the surface, its velocity kept. out[0]: how many were moved; out[1]: the
+    deepest move (m)."""
     for i in range(first, particles.count):
         if particles.flags[i] == ACTIVE:
             xi = particles.x[i]
             r = particles.radius[i]
             m = particles.mass[i]
-            k = stiffness * ti.select(stiffness_per_mass != 0, m, 1.0)
-            for ci in range(colliders.count):
-                if (xi - colliders.center0[ci]).norm() - colliders.params[ci][BOUND_SLOT] < r:
-                    phi, _n = collider_sdf(colliders, groups, ci, xi, False, r)
-                    depth = r - phi
-                    if depth > 0.0:
-                        ti.atomic_max(out[0], depth * ti.sqrt(k / m))
-                        ti.atomic_max(out[1], depth)
+            omega = ti.sqrt(stiffness * ti.select(stiffness_per_mass != 0, m, 1.0) / m)
+            moved = 0.0
+            for _ in range(PLACED_ROUNDS):
+                for ci in range(colliders.count):
+                    if (xi - colliders.center0[ci]).norm() - colliders.params[ci][BOUND_SLOT] < r:
+                        phi, n = collider_sdf(colliders, groups, ci, xi, False, r)
+                        depth = r - phi
+                        if depth * omega > speed:
+                            xi += depth * n
+                            moved = ti.max(moved, depth)
+            if moved > 0.0:
+                particles.x[i] = xi
+                ti.atomic_add(out[0], 1.0)
+                ti.atomic_max(out[1], moved)
 
 
 @functools.cache
@@ -377,26 +388,26 @@ class PenaltySolver(Solver):
                 f"explicit integration diverges beyond dt = {contact.stability_limit:.3g} s. Use "
                 f"dt <= {contact.recommended_dt:.3g} s, a softer contact, or integrator='backward_euler'."]
 
-    def check_placed(self, world, first: int) -> str | None:
-        """A warning when particles placed from the host (storage slots first..) start inside a
-        collider so deep that its spring throws them out faster than PLACED_SPEED: a penalty
-        contact has no allowance for placed overlap with colliders (docs/design-notes.md,
-        "Crowds keep their momentum"), so the spring's energy k depth^2 / 2 becomes speed."""
+    def place_out(self, world, first: int) -> tuple[int, float]:
+        """Particles placed from the host (storage slots first..) inside a collider so deep
+        that its spring would throw them out faster than PLACED_SPEED (depth * sqrt(k/m),
+        undamped) are moved out onto its surface, their velocities kept (docs/physics.md 4.2):
+        a penalty contact has no allowance for overlap placed against colliders, and the
+        spring's energy k depth^2 / 2 would become speed. Shallower ones (a resting depth given
+        on purpose) stay. Returns (how many moved, the deepest move in m)."""
         particles = world.particles
         if particles.count <= first or not world.colliders.entries:
-            return None
+            return 0, 0.0
         out = ti.ndarray(float, shape=2)
         out.fill(0)
         law = self.contact_law()
-        _placed_depths(particles.args, world.colliders.args, world.colliders.groups, first, law["stiffness"],
-                       law["stiffness_per_mass"], out)
-        speed, depth = (float(value) for value in out.to_numpy())
-        if speed <= PLACED_SPEED:
-            return None
-        return (f"PenaltySolver: particles were placed inside colliders, up to {depth:.3g} m deep; their contact "
-                f"springs will throw them out at up to {speed:.3g} m/s (depth * sqrt(k/m)). Place them outside "
-                "the colliders, or use tc.ImpulseSolver, which pushes such particles out by positions without "
-                "giving them speed")
+        particles.mark_moved()
+        _place_out(particles.args, world.colliders.args, world.colliders.groups, first, law["stiffness"],
+                   law["stiffness_per_mass"], PLACED_SPEED, out)
+        moved, deepest = out.to_numpy()
+        if moved:
+            particles.edits += 1  # (positions changed outside the steps: kept lists no longer hold)
+        return int(moved), float(deepest)
 
     def stability_advice(self, world) -> str | None:
         """What to change when a run went non-finite (Scene adds it to its error)."""
