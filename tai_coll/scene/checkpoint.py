@@ -56,7 +56,8 @@ SKIP = {name: reset | NOT_STATE.get(name, set()) for name, reset in RESET.items(
 TABLE_BODY_ROWS = ("body", "body_inv_mass", "body_inv_inertia", "body_com", "body_up")
 #: The scene's own attributes a state holds.
 SCENE_FIELDS = ("dt", "substeps", "_time_base", "_substep_count", "_substep_limit", "_watch", "_limits",
-                "_solver_checked", "_solver_warned", "_warned_dropped", "_warned_crushed", "_frame")
+                "_solver_checked", "_solver_warned", "_warned_dropped", "_warned_crushed", "_frame",
+                "_placed_checked")
 
 _NUMPY_TO_TI = {np.dtype(np.float32): ti.f32, np.dtype(np.float64): ti.f64, np.dtype(np.int32): ti.i32,
                 np.dtype(np.int64): ti.i64}

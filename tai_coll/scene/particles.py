@@ -164,6 +164,10 @@ class ParticleStore:
         # The lowest storage slot whose position was written from the host since the pair
         # solver last gave the written particles their overlap allowances (None: none since).
         self.placed_from = None
+        # `placements` counts the placements from the host (particles added as placed, positions
+        # written): the solver moves particles placed inside colliders once per placement
+        # (Solver.place_out)
+        self.placements = 0
         self.next_id = 0  # the id the next particle added gets
         # `host_writes` counts writes of particles already in the store from the host
         # (`write`): what holds between the substeps of a run for particles as they were (the
@@ -249,6 +253,7 @@ class ParticleStore:
         self._slots_host = None
         if n and placed:
             self.placed_from = start if self.placed_from is None else min(self.placed_from, start)
+            self.placements += 1
         if self.w is not None:
             self._write_range("w", start, np.zeros_like(x))
         self.count += n
@@ -311,6 +316,7 @@ class ParticleStore:
         self.host_writes += 1
         if name == "x" and self.count:
             self.placed_from = 0  # every particle was placed anew
+            self.placements += 1
         if name not in ("rest", "anchor"):
             self.wake_all()
 

@@ -83,7 +83,7 @@ class Scene:
         self._limits = None  # the solver's (recommended dt, stability limit), or None (_check_solver)
         self._solver_checked = None  # (particles, colliders) when the solver last checked the scene
         self._solver_warned = set()
-        self._placed_checked = None  # (placed_from, count, host_writes) when placed particles were last moved out
+        self._placed_checked = None  # the store's placements when placed particles were last moved out
         self._warned_dropped = False  # whether full neighbour lists were warned about (once)
         self._warned_crushed = False  # whether DEM overlap beyond CRUSHED_OVERLAP was warned about (once)
 
@@ -322,9 +322,8 @@ class Scene:
         """The solver moves particles placed inside colliders since it last looked out of them
         (Solver.place_out: the penalty solver's contacts would throw them out)."""
         store = self._particles
-        key = (store.placed_from, store.count, store.host_writes)
-        if store.placed_from is not None and key != self._placed_checked:
-            self._placed_checked = key
+        if store.placed_from is not None and store.placements != self._placed_checked:
+            self._placed_checked = store.placements
             self.solver.place_out(self._world, store.placed_from)
 
     def _warn_once(self, message: str):
