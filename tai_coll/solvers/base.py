@@ -67,12 +67,11 @@ class Solver(abc.ABC):
         """Warnings about the scene as it stands (no warnings by default)."""
         return []
 
-    def place_out(self, world: World, first: int) -> tuple[int, float]:
+    def place_out(self, world: World, first: int) -> None:
         """Before the next step: particles placed from the host (storage slots first..) that
-        lie inside colliders, where the solver would turn that into speed, moved out. Returns
-        (how many moved, the deepest move in m); by default none (the impulse solver's last
-        resort pushes them out by positions, docs/physics.md 3.4)."""
-        return 0, 0.0
+        lie inside colliders, where the solver would turn that into speed, moved out. By
+        default none are (the impulse solver's last resort pushes them out by positions,
+        docs/physics.md 3.4)."""
 
     def time_step_limits(self, world: World) -> tuple | None:
         """(recommended dt, stability limit) in s of the stiffest contact the solver integrates

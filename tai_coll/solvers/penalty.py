@@ -206,20 +206,20 @@ PLACED_ROUNDS = 4
 
 @ti.kernel
 def _place_out(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(), first: ti.i32,
-               stiffness: float, stiffness_per_mass: ti.i32, speed: float,
+               stiffness: float, stiffness_per_mass: ti.i32, damping: float, damping_is_ratio: ti.i32, speed: float,
                # outputs
-               out: ARRAY):
+               moved: ARRAY):
     """Storage slots first.. at the colliders' start poses: a particle inside a collider by a
     depth whose undamped exit speed depth * sqrt(k/m) passes `speed` is moved out along the
-    normal onto the surface, its velocity kept. out[0]: how many were moved; out[1]: the
-    deepest move (m)."""
+    normal onto the surface, its velocity kept. moved[0]: 1 if any was."""
     for i in range(first, particles.count):
         if particles.flags[i] == ACTIVE:
             xi = particles.x[i]
             r = particles.radius[i]
             m = particles.mass[i]
-            omega = ti.sqrt(stiffness * ti.select(stiffness_per_mass != 0, m, 1.0) / m)
-            moved = 0.0
+            k, _d = contact_constants(m, stiffness, stiffness_per_mass, damping, damping_is_ratio)
+            omega = ti.sqrt(k / m)
+            out = False
             for _ in range(PLACED_ROUNDS):
                 for ci in range(colliders.count):
                     if (xi - colliders.center0[ci]).norm() - colliders.params[ci][BOUND_SLOT] < r:
@@ -227,11 +227,10 @@ def _place_out(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.temp
                         depth = r - phi
                         if depth * omega > speed:
                             xi += depth * n
-                            moved = ti.max(moved, depth)
-            if moved > 0.0:
+                            out = True
+            if out:
                 particles.x[i] = xi
-                ti.atomic_add(out[0], 1.0)
-                ti.atomic_max(out[1], moved)
+                moved[0] = 1
 
 
 @functools.cache
@@ -388,26 +387,23 @@ class PenaltySolver(Solver):
                 f"explicit integration diverges beyond dt = {contact.stability_limit:.3g} s. Use "
                 f"dt <= {contact.recommended_dt:.3g} s, a softer contact, or integrator='backward_euler'."]
 
-    def place_out(self, world, first: int) -> tuple[int, float]:
+    def place_out(self, world, first: int) -> None:
         """Particles placed from the host (storage slots first..) inside a collider so deep
         that its spring would throw them out faster than PLACED_SPEED (depth * sqrt(k/m),
         undamped) are moved out onto its surface, their velocities kept (docs/physics.md 4.2):
         a penalty contact has no allowance for overlap placed against colliders, and the
         spring's energy k depth^2 / 2 would become speed. Shallower ones (a resting depth given
-        on purpose) stay. Returns (how many moved, the deepest move in m)."""
+        on purpose) stay."""
         particles = world.particles
         if particles.count <= first or not world.colliders.entries:
-            return 0, 0.0
-        out = ti.ndarray(float, shape=2)
-        out.fill(0)
-        law = self.contact_law()
+            return
+        moved = ti.ndarray(ti.i32, shape=1)
+        moved.fill(0)
         particles.mark_moved()
-        _place_out(particles.args, world.colliders.args, world.colliders.groups, first, law["stiffness"],
-                   law["stiffness_per_mass"], PLACED_SPEED, out)
-        moved, deepest = out.to_numpy()
-        if moved:
+        _place_out(particles.args, world.colliders.args, world.colliders.groups, first, **self.contact_law(),
+                   speed=PLACED_SPEED, moved=moved)
+        if runtime.read_small(moved, 1)[0]:
             particles.edits += 1  # (positions changed outside the steps: kept lists no longer hold)
-        return int(moved), float(deepest)
 
     def stability_advice(self, world) -> str | None:
         """What to change when a run went non-finite (Scene adds it to its error)."""

@@ -22,11 +22,11 @@ pair's reach), so a pair's two allowances add up to at least its overlap. While 
   max_push_speed * dt a substep, one Jacobi pass so that crowds converge (coincident centres
   get a direction per pair, response.laws.coincident_axis, so a crowd spawned on one point
   spreads into a ball). The allowances then follow the overlap left, never more than half a
-  particle's deepest overlap: the springs are pressed only by overlap that develops during the run, never
-  by placed overlap the separation has not had time to remove (a fixed shrink, as for impulse
-  pairs, pressed the springs of crowds faster than they could get apart, and the energy they
-  stored threw 1,000 particles spawned on one point out at 120 m/s). An approach the springs do
-  not meet (within the allowances) is stopped in the same pass. Each allowance also loses
+  particle's deepest overlap: the springs are pressed only by overlap that develops during the
+  run, never by placed overlap the separation has not had time to remove (a fixed shrink, as
+  for impulse pairs, pressed the springs of crowds faster than they could get apart, and the
+  energy they stored threw 1,000 particles spawned on one point out at 120 m/s). An approach
+  the springs do not meet (within the allowances) is stopped in the same pass. Each allowance also loses
   DEM_SHRINK of the push distance a substep where the separation does not move its particle,
   and all stay below a ceiling that comes down by DEM_CEILING of it a substep, so that they end
   where the particles cannot get apart (jammed, or too many in a closed box), the springs then
@@ -39,7 +39,6 @@ import math
 import taichi as ti
 
 from ... import runtime
-
 from ...neighbors.hash_grid import cell_of, query_span, query_spans
 from ...response.laws import TINY, pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, GridArgs, ListArgs, ParticleArgs, vec3
