@@ -29,6 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
 from tools.bench import machine_info, write_json  # noqa: E402
+from tools.bench_pile import warmup_particles  # noqa: E402
 
 RADIUS = 0.003
 HALF = 0.08          # m, the boxes' half side
@@ -108,8 +109,8 @@ def main(argv=None):
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_bodies.json"))
     args = parser.parse_args(argv)
     tc.init(arch=args.arch, threads=args.threads if args.arch == "cpu" else None)
-    for variant in ("bodies", "kinematic"):  # compile every kernel first, on a small scene
-        build(variant, 2000).step(2)
+    for variant in ("bodies", "kinematic"):  # compile every kernel first, on a smaller scene
+        build(variant, warmup_particles()).step(2)
     rows = [run(variant, args.particles, args.frames) for variant in ("bodies", "kinematic")]
     ratio = rows[0]["particle_steps_per_s"] / rows[1]["particle_steps_per_s"]
     print(f"{args.particles:,} particles onto 10 boxes, {args.frames} frames x {SUBSTEPS} substeps "

@@ -100,10 +100,21 @@ def state_bytes(scene) -> int:
     return scene.state_nbytes()
 
 
+def warmup_particles() -> int:
+    """Particles in a warm-up scene: more than tai_coll launches serial kernels for at any
+    thread count (tai_coll/serial_loops.py). A scene at or below that limit compiles the
+    kernels' serial variants, which a large scene never launches: a 2,000-particle warm-up
+    left twelve kernels to compile in the 100k pile's first timed frame (2.3 to 4 s of it)."""
+    from tai_coll import serial_loops
+
+    return serial_loops.SERIAL_WORK + 1
+
+
 def compile_pile_kernels(tc, variant: str):
-    """Run a small pile until its particles touch, so that every kernel variant the pile
-    uses is compiled (or loaded from the offline cache) before anything is timed."""
-    scene = pile_scene(tc, 2000, half=0.03, variant=variant)
+    """Run a pile of warmup_particles() until its particles touch, so that every kernel
+    variant the pile uses is compiled (or loaded from the offline cache) before anything is
+    timed."""
+    scene = pile_scene(tc, warmup_particles(), variant=variant)
     scene.step(int(round(0.1 / (SUBSTEPS * DT[base_variant(variant)]))))
     scene.particle_overlap()
 

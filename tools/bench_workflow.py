@@ -29,6 +29,7 @@ sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
 from tools.bench import frame_times, machine_info, write_json  # noqa: E402
+from tools.bench_pile import warmup_particles  # noqa: E402
 
 RADIUS = 0.005
 RATE = 6000.0
@@ -57,7 +58,7 @@ def main(argv=None):
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_workflow.json"))
     args = parser.parse_args(argv)
     tc.init(arch=args.arch, threads=args.threads if args.arch == "cpu" else None)
-    build(2000, True).step(3)  # compile every kernel first, on a small scene
+    build(warmup_particles(), True).step(3)  # compile every kernel first, on a smaller scene
     rows = []
     scenes = {}
     for variant in ("baseline", "emitter"):
