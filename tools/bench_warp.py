@@ -48,7 +48,10 @@ Warp's CPU backend runs one thread; tai_coll runs --threads (default 2). On a GP
 timed steps end with a synchronize (Taichi's ti.sync, Warp's synchronize_device). tai_coll's
 rows also give the bytes a particle of every array its scene holds (Scene.state_nbytes).
 Prints a table with the ratios and writes bench_results/bench_warp.json (every solver's
-figures and settings), rewritten as each row is finished.
+figures and settings), rewritten as each row is finished. With --repeats N every row runs N
+times, tai_coll and Warp alternately, and reports its run of median ratio with the range:
+on a shared 2-core machine the ratio moves from hour to hour (tai_coll runs two threads,
+Warp one; docs/design-notes.md, "Against Warp").
 """
 
 import argparse
@@ -725,10 +728,35 @@ def bed_row(n: int, method: str, ours: dict, theirs: dict) -> dict:
             "warp_best": best, "ratio_to_best": ours["rate"] / theirs[best]["rate"]}
 
 
+def headline_ratio(row: dict) -> float:
+    """A row's ratio: the layer's against Warp, the bed's against Warp's best."""
+    return row["ratio"] if row["row"] == "layer" else row["ratio_to_best"]
+
+
+def median_rows(runs: list) -> list:
+    """One row per (row, particles, method) from the runs of every repeat: the run of median
+    ratio (the lower middle one for an even count), with the ratios of all its runs (`runs`,
+    in the order run) and their range."""
+    keyed = {}
+    for run in runs:
+        keyed.setdefault((run["row"], run["particles"], run.get("method")), []).append(run)
+    rows = []
+    for same in keyed.values():
+        ordered = sorted(same, key=headline_ratio)
+        ratios = [headline_ratio(run) for run in same]
+        rows.append({**ordered[(len(ordered) - 1) // 2], "runs": ratios, "ratio_range": [min(ratios), max(ratios)]})
+    return rows
+
+
 def print_table(rows: list, header: str) -> None:
     print(header)
     print(f"{'row':<6} {'particles':>10}  {'solver':<9} {'steps/s':>10} {'tai_coll/it':>11} {'overlap':>8} "
           f"{'max speed':>10}  notes")
+
+    def spread(r):
+        runs = r.get("runs", [])
+        return (f"; the median of {len(runs)} runs, ratios {r['ratio_range'][0]:.2f}x to {r['ratio_range'][1]:.2f}x"
+                if len(runs) > 1 else "")
 
     def line(row, particles, solver, res, ratio, notes):
         overlap = f"{res['mean_overlap'] * 100:.2f}%r" if "mean_overlap" in res else ""
@@ -743,7 +771,7 @@ def print_table(rows: list, header: str) -> None:
                  f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} mm; "
                  f"{r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
             line("", "", "warp", r["warp"], r["ratio"], f"one kernel a step; lowest centre "
-                 f"{r['warp']['lowest'] * 1e3:.3f} mm")
+                 f"{r['warp']['lowest'] * 1e3:.3f} mm{spread(r)}")
             continue
         method = pair_options(r["method"])
         passes = (f", {method['iterations']} contact and {method['projection_iterations']} projection passes"
@@ -755,7 +783,8 @@ def print_table(rows: list, header: str) -> None:
         for k, res in r["warp"].items():
             notes = WARP_NOTES[k]() + (f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
             line("", "", k, res, r["ratio"][k], notes)
-        print(f"{'':<6} {'':>10}  tai_coll against Warp's best ({r['warp_best']}): {r['ratio_to_best']:.2f}x")
+        print(f"{'':<6} {'':>10}  tai_coll against Warp's best ({r['warp_best']}): {r['ratio_to_best']:.2f}x"
+              f"{spread(r)}")
 
 
 def sizes(text: str) -> list:
@@ -784,10 +813,15 @@ def main(argv=None):
     parser.add_argument("--pair-methods", default="gauss-seidel",
                         help="bed: tai_coll's pass methods, any of gauss-seidel,jacobi, each optionally with its "
                              "contact and projection passes (jacobi:2:10); default gauss-seidel")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="run every row this many times, tai_coll and Warp alternately; each row reports the "
+                             "run of median ratio and the ratios' range (default 1)")
     parser.add_argument("--arch", default="cpu")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
     args = parser.parse_args(argv)
+    if args.repeats < 1:
+        parser.error(f"--repeats: give 1 or more; got {args.repeats}")
     variants = [v for v in args.warp_variants.split(",") if v]
     unknown = sorted(set(variants) - set(WARP_VARIANTS))
     if unknown or not variants:
@@ -816,22 +850,27 @@ def main(argv=None):
     report = {"benchmark": "bench_warp", "machine": machine_info(args), "warp": wp.__version__,
               "warp_settings": settings, "rows": rows}
 
+    runs = []  # every run of every row, in the order run
+
     def done(row):  # every row written as it is finished (a long GPU run may be cut short)
-        rows.append(row)
+        runs.append(row)
+        rows[:] = median_rows(runs)
         write_json(args.out, report)
         print(f"  done: {row['row']} of {row['particles']:,}", flush=True)
 
-    if "layer" in wanted:
-        for n in args.layer_particles:
-            ours, theirs = tai_coll_layer(n, args.layer_frames), warp_layer(wp, kernels, n, args.layer_frames, device)
-            done({"row": "layer", "particles": n, "tai_coll": ours, "warp": theirs,
-                  "ratio": ours["rate"] / theirs["rate"]})
-    if "bed" in wanted:
-        for n in args.bed_particles:
-            ours = {m: tai_coll_bed(n, args.settle, args.timed, m) for m in methods}
-            theirs = {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}
-            for m in methods:
-                done(bed_row(n, m, ours[m], theirs))
+    for _ in range(args.repeats):
+        if "layer" in wanted:
+            for n in args.layer_particles:
+                ours = tai_coll_layer(n, args.layer_frames)
+                theirs = warp_layer(wp, kernels, n, args.layer_frames, device)
+                done({"row": "layer", "particles": n, "tai_coll": ours, "warp": theirs,
+                      "ratio": ours["rate"] / theirs["rate"]})
+        if "bed" in wanted:
+            for n in args.bed_particles:
+                ours = {m: tai_coll_bed(n, args.settle, args.timed, m) for m in methods}
+                theirs = {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}
+                for m in methods:
+                    done(bed_row(n, m, ours[m], theirs))
     print_table(rows, f"tai_coll {tc.__version__} ({args.arch}, {args.threads if args.arch == 'cpu' else ''} "
                       f"threads) against Warp {wp.__version__} ({device}), f32, dt {DT:.4g} s; steps/s: "
                       f"particle-steps per second (bed: steps of dt; overlap: mean of touching pairs)")

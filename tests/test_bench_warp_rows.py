@@ -1,0 +1,48 @@
+"""tools/bench_warp.py's repeats: every row run several times is reported by its run of median
+ratio, with the ratios of all its runs (the tool itself needs warp-lang, a benchmark-only
+extra; this tests only how it folds its runs into rows)."""
+
+from tools.bench_warp import median_rows
+
+
+def layer(ratio, n=1000):
+    return {"row": "layer", "particles": n, "tai_coll": {"rate": ratio * 1e8}, "warp": {"rate": 1e8},
+            "ratio": ratio}
+
+
+def bed(method, ratio_to_best, n=1000):
+    return {"row": "bed", "particles": n, "method": method, "ratio_to_best": ratio_to_best,
+            "tai_coll": {"rate": ratio_to_best}, "warp": {}, "ratio": {}, "warp_best": "pbd"}
+
+
+def test_a_row_run_three_times_reports_its_median_run_and_every_ratio():
+    rows = median_rows([layer(1.2), layer(1.6), layer(1.4)])
+    assert len(rows) == 1
+    row = rows[0]
+    assert row["ratio"] == 1.4 and row["tai_coll"]["rate"] == 1.4e8  # the median run itself, not a mix
+    assert row["runs"] == [1.2, 1.6, 1.4]  # in the order run
+    assert row["ratio_range"] == [1.2, 1.6]
+
+
+def test_an_even_count_reports_the_lower_middle_run():
+    row, = median_rows([layer(2.0), layer(1.0), layer(1.5), layer(1.8)])
+    assert row["ratio"] == 1.5
+
+
+def test_rows_are_kept_apart_by_kind_size_and_method_and_bed_rows_by_their_ratio_to_warps_best():
+    runs = [layer(1.1), bed("gauss-seidel", 0.9), bed("jacobi", 0.5), layer(1.1, n=10),
+            layer(1.3), bed("gauss-seidel", 0.7), bed("jacobi", 0.6), layer(1.2, n=10),
+            layer(1.2), bed("gauss-seidel", 0.8), bed("jacobi", 0.4), layer(1.0, n=10)]
+    rows = {(r["row"], r["particles"], r.get("method")): r for r in median_rows(runs)}
+    assert set(rows) == {("layer", 1000, None), ("layer", 10, None), ("bed", 1000, "gauss-seidel"),
+                         ("bed", 1000, "jacobi")}
+    assert rows["layer", 1000, None]["ratio"] == 1.2
+    assert rows["layer", 10, None]["ratio"] == 1.1
+    assert rows["bed", 1000, "gauss-seidel"]["ratio_to_best"] == 0.8
+    assert rows["bed", 1000, "jacobi"]["runs"] == [0.5, 0.6, 0.4]
+
+
+def test_a_single_run_is_reported_as_it_was():
+    run = layer(1.63)
+    row, = median_rows([run])
+    assert {k: row[k] for k in run} == run and row["runs"] == [1.63] and row["ratio_range"] == [1.63, 1.63]
