@@ -83,10 +83,8 @@ SpinArgs = ti.types.argpack(w=ARRAY)
 #: and 8 floats (`fshape`) describing its block, and the float and integer pools the blocks
 #: live in. Geometry functions take it (or a ColliderArgs, which has the same members) as
 #: `g` with a collider index; analytic shapes ignore it. Host queries pass one collider's
-#: numpy rows, hence the explicit 8-vector element types.
-ShapeArgs = ti.types.argpack(ishape=ti.types.ndarray(dtype=ti.types.vector(8, ti.i32), ndim=1),
-                             fshape=ti.types.ndarray(dtype=ti.types.vector(8, float), ndim=1),
-                             fpool=ARRAY, ipool=ARRAY)
+#: rows in Taichi arrays of 8-vectors (geometry/queries.py).
+ShapeArgs = ti.types.argpack(ishape=ARRAY, fshape=ARRAY, fpool=ARRAY, ipool=ARRAY)
 
 #: The collider table (scene/colliders.py): count, kind, params (4 floats: shape parameters
 #: and, in slot 3, a bounding-sphere radius), material (restitution, friction, wet friction),

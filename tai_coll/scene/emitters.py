@@ -37,6 +37,9 @@ DENSEST = np.pi / (3.0 * np.sqrt(2.0))
 #: Candidate points checked against the particles near the region at once (memory: this
 #: many times the nearby particles, in float64).
 CHUNK = 1 << 20
+#: Candidate points an emitter spaces apart with one table of their distances (_spaced): the
+#: table's temporaries take 32 B a pair, 32 MiB at this count.
+PAIRWISE = 1024
 
 
 def region_row(name: str, region) -> tuple:
@@ -137,23 +140,20 @@ class Emitter:
         points = self.center + local @ self.rotation.T
         ok = self._clear_of_colliders(points, colliders)
         if len(x):
+            # squared distances axis by axis, added in the order np.sum adds a row of three
+            # (the same values; a sum over a last axis of three is NumPy's slow case)
             step = max(CHUNK // len(x), 1)
+            gap2 = (r + self.radius) ** 2
             for lo in range(0, len(points), step):
-                d2 = np.sum((points[lo:lo + step, None, :] - x[None]) ** 2, axis=2)
-                ok[lo:lo + step] &= np.all(d2 >= (r[None] + self.radius) ** 2, axis=1)
-        placed = np.empty((tried, 3))
-        count = 0
-        gap2 = (2.0 * self.radius) ** 2
-        for p in points[ok]:
-            if count and np.min(np.sum((placed[:count] - p) ** 2, axis=1)) < gap2:
-                continue
-            placed[count] = p
-            count += 1
-            if count == tried:
-                break
-        self.emitted += count
-        self.skipped += owed - count
-        return placed[:count]
+                part = points[lo:lo + step]
+                d2 = (part[:, 0, None] - x[None, :, 0]) ** 2
+                d2 += (part[:, 1, None] - x[None, :, 1]) ** 2
+                d2 += (part[:, 2, None] - x[None, :, 2]) ** 2
+                ok[lo:lo + step] &= np.all(d2 >= gap2[None], axis=1)
+        taken = _spaced(points[ok], (2.0 * self.radius) ** 2, tried)
+        self.emitted += len(taken)
+        self.skipped += owed - len(taken)
+        return taken
 
     def _clear_of_colliders(self, points: np.ndarray, colliders) -> np.ndarray:
         """Whether a particle centred at each point is clear of every collider entry at its
@@ -175,6 +175,33 @@ class Emitter:
     def restore(self, state: dict):
         self.emitted, self.skipped = int(state["emitted"]), int(state["skipped"])
         self.rng.bit_generator.state = state["rng"]
+
+
+def _spaced(points: np.ndarray, gap2: float, most: int) -> np.ndarray:
+    """The points, in order, that lie no nearer than sqrt(gap2) to any point taken before
+    them, at most `most` of them. Up to PAIRWISE points (an emitter's usual few a substep), the
+    squared distances between all of them are computed at once, as the loop below computes
+    them one point at a time (the same values), and walked in plain Python: a NumPy call a
+    point cost more than the rest of the placement."""
+    if len(points) <= PAIRWISE:
+        near = (np.sum((points[:, None, :] - points[None]) ** 2, axis=2) < gap2).tolist()
+        taken = []
+        for k, row in enumerate(near):
+            if not any(row[j] for j in taken):
+                taken.append(k)
+                if len(taken) == most:
+                    break
+        return points[taken].reshape(len(taken), 3)
+    placed = np.empty((most, 3))
+    count = 0
+    for p in points:
+        if count and np.min(np.sum((placed[:count] - p) ** 2, axis=1)) < gap2:
+            continue
+        placed[count] = p
+        count += 1
+        if count == most:
+            break
+    return placed[:count]
 
 
 def emit(emitters, store, sinks, colliders, t1: float, dt: float):
@@ -225,6 +252,7 @@ class Sinks:
         self.removed = 0  # particles removed since the scene was built
         self._near = None  # (x, r) rows of the particles near an emitter (see near)
         self._found = None
+        self._head = None  # (the first rows of _near, on their way to the host)
 
     def __len__(self):
         return len(self.regions)
@@ -245,15 +273,18 @@ class Sinks:
         if self._near is None or self._near.shape[0] < particles.capacity:
             self._near = ti.Vector.ndarray(4, float, shape=particles.capacity)
             self._found = ti.ndarray(ti.i32, shape=1)
-        self._found.fill(0)
         reach = _bound(emitter.kind, emitter.size) + emitter.radius
         _gather_near(particles.args, host_vector(emitter.center), reach, self._found, self._near)
-        k = int(self._found[0])
+        k = int(runtime.read_small(self._found, 1)[0])
         if not k:
             return np.zeros((0, 3)), np.zeros(0)
-        head = ti.Vector.ndarray(4, float, shape=k)  # (the k rows alone cross to the host)
-        _copy_head(self._near, head)
-        rows = head.to_numpy().astype(np.float64)
+        # the first k rows cross to the host, through a buffer kept between calls (allocating
+        # one costs more than copying the rows) that grows by doubling
+        if self._head is None or self._head.shape[0] < k:
+            self._head = ti.Vector.ndarray(4, float, shape=max(k, 2 * (0 if self._head is None else
+                                                                        self._head.shape[0])))
+        _copy_head(self._near, self._head, k)
+        rows = self._head.to_numpy()[:k].astype(np.float64)
         return rows[:, :3], rows[:, 3]
 
     def mark(self, particles):
@@ -263,6 +294,7 @@ class Sinks:
 
 @ti.kernel
 def _gather_near(particles: ParticleArgs, center: vec3, reach: float, found: ti.types.ndarray(), near: ti.types.ndarray()):
+    found[0] = 0
     for i in range(particles.count):
         p = particles.x[i]
         r = particles.radius[i]
@@ -271,8 +303,8 @@ def _gather_near(particles: ParticleArgs, center: vec3, reach: float, found: ti.
 
 
 @ti.kernel
-def _copy_head(rows: ti.types.ndarray(), head: ti.types.ndarray()):
-    for k in range(head.shape[0]):
+def _copy_head(rows: ti.types.ndarray(), head: ti.types.ndarray(), count: ti.i32):
+    for k in range(count):
         head[k] = rows[k]
 
 
