@@ -32,6 +32,7 @@ class Coupling:
         self.counts = np.zeros(0)  # particles that touched each body in the last substep
         self._out = None
         self._near = None
+        self._listed = None  # the bodies' entries as the table's body column last listed them (upload)
 
     def ensure(self, particle_capacity: int, bodies: int):
         """Ledger slots for particle_capacity particles and rows for `bodies` bodies."""
@@ -75,6 +76,16 @@ class Coupling:
         _count_near(particles.args, table.args, table.groups, dt, self._near)
         return self._near.to_numpy()
 
+    def lists_bodies(self, store) -> bool:
+        """Whether the table's body column (which upload writes, and count_near reads to
+        know which entries are bodies) lists the store's bodies where they are now: not
+        before the first upload, nor after a body was added or the table reallocated."""
+        return self._listed == self._listing(store)
+
+    def _listing(self, store):
+        index = {id(e): k for k, e in enumerate(self.table.entries)}
+        return (id(self.table.body), self.table.capacity, tuple(index.get(id(e), -1) for e in store.entries))
+
     def upload(self, store, near=None, up=None):
         """Each body's row of the collider table for the coming substep (docs/physics.md 7.2);
         near: this substep's counts of particles near each body (count_near); up: the up
@@ -103,6 +114,7 @@ class Coupling:
         table.body_inv_inertia.from_numpy(inv_inertia)
         table.body_com.from_numpy(com)
         table.body_up.from_numpy(held_up)
+        self._listed = self._listing(store)
 
     def collect(self, store, particle_count: int):
         """Sum and clear the ledger: (impulses (B, 3) and torques (B, 3) the free particles
