@@ -196,10 +196,6 @@ def penalty_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     return clearance
 
 
-#: Particles placed inside a collider so deep that its contact would throw them out faster than
-#: this (m/s, the pairs' default max_push_speed) are moved out onto its surface
-#: (PenaltySolver.place_out).
-PLACED_SPEED = 0.5
 #: Rounds of place_out's moves (a particle placed in a corner leaves one collider into another).
 PLACED_ROUNDS = 4
 
@@ -389,11 +385,13 @@ class PenaltySolver(Solver):
 
     def place_out(self, world, first: int) -> None:
         """Particles placed from the host (storage slots first..) inside a collider so deep
-        that its spring would throw them out faster than PLACED_SPEED (depth * sqrt(k/m),
-        undamped) are moved out onto its surface, their velocities kept (docs/physics.md 4.2):
-        a penalty contact has no allowance for overlap placed against colliders, and the
-        spring's energy k depth^2 / 2 would become speed. Shallower ones (a resting depth given
-        on purpose) stay."""
+        that its spring would throw them out faster than the pairs' default push speed
+        (settings.MAX_PUSH_SPEED; depth * sqrt(k/m), undamped) are moved out onto its surface,
+        their velocities kept (docs/physics.md 4.2): a penalty contact has no allowance for
+        overlap placed against colliders, and the spring's energy k depth^2 / 2 would become
+        speed. Shallower ones (a resting depth given on purpose) stay."""
+        from .pairs.settings import MAX_PUSH_SPEED  # (here: the pairs package imports this module)
+
         particles = world.particles
         if particles.count <= first or not world.colliders.entries:
             return
@@ -401,7 +399,7 @@ class PenaltySolver(Solver):
         moved.fill(0)
         particles.mark_moved()
         _place_out(particles.args, world.colliders.args, world.colliders.groups, first, **self.contact_law(),
-                   speed=PLACED_SPEED, moved=moved)
+                   speed=MAX_PUSH_SPEED, moved=moved)
         if runtime.read_small(moved, 1)[0]:
             particles.edits += 1  # (positions changed outside the steps: kept lists no longer hold)
 
