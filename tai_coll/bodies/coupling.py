@@ -116,17 +116,19 @@ class Coupling:
         table.body_up.from_numpy(held_up)
         self._listed = self._listing(store)
 
-    def collect(self, store, particle_count: int):
+    def collect(self, store, particle_count: int, keep_counts: bool = True):
         """Sum and clear the ledger: (impulses (B, 3) and torques (B, 3) the free particles
         got from each body this substep, float64; the held contacts (body (H,), point (H, 3),
-        unit normal (H, 3) out of the body, depth (H,) in m), in ledger order); the counts
-        are kept for the next upload."""
+        unit normal (H, 3) out of the body, depth (H,) in m), in ledger order); with
+        keep_counts, the counts of the particles that touched each body are kept for the next
+        upload."""
         B = store.count
         serial = runtime.info().arch == "cpu"
         _collect(self.table.ledger_body, self.table.ledger_impulse, self.table.ledger_torque, self.table.body_total,
                  particle_count, B, serial, self._out, self._held_body, self._held_point, self._held_normal)
         out = self._out.to_numpy().astype(np.float64)[:OUT_ROWS * B].reshape(B, OUT_ROWS, 3)
-        self.counts[:B] = out[:, 2, 0] + out[:, 2, 1]
+        if keep_counts:
+            self.counts[:B] = out[:, 2, 0] + out[:, 2, 1]
         count = int(self._held_body[2 * self.capacity])
         held = ()
         if count:

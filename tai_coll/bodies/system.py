@@ -8,6 +8,9 @@
     end     the particles' impulses summed (coupling.py) and taken from each body's momentum
             and angular momentum; the pose redone from the pose now with the new velocities,
             x1 = x0 + dt v, R1 = exp(dt w) R0, and committed.
+    (with impulse pairs, `end` runs inside the particles' substep, before they are stored:
+            they are then kept out of the bodies at the committed poses, and what the
+            particles a body pushed so got from it is taken from it, `take_pushes`)
 
 A body's surface moves, as the particles see it, with the predicted motion; its real motion
 is what the particles left it. A body a particle cannot move (the particle is held by what
@@ -58,15 +61,30 @@ class BodySystem:
         # and for the one after them (each from its own last solution)
         self.contact_cache = rigid.ContactCache()
         self.after_cache = rigid.ContactCache()
+        self.open = False  # between begin and end of a substep
+        self._start_poses = []  # the bodies' shape poses at the open substep's start
 
     @property
     def count(self) -> int:
         return self.store.count
 
+    def max_speed(self) -> float:
+        """The fastest point of any body's shape (m/s): |v| + |w| times the reach of its
+        bounding sphere from the centre of mass (0.0 without bodies)."""
+        store = self.store
+        speed = 0.0
+        for b in range(store.count):
+            center, _ = store.shape_pose(b)
+            shape = store.entries[b].shape
+            reach = shape.params[shape.BOUND_SLOT] + float(np.linalg.norm(center - store.x[b]))
+            speed = max(speed, float(np.linalg.norm(store.v[b]) + np.linalg.norm(store.omega(b)) * reach))
+        return speed
+
     def begin(self, world, dt: float):
         """Before the particles' substep; the table's kinematic colliders are at this
         substep's poses (ColliderTable.advance)."""
         store = self.store
+        self.open = True
         self.contacts = rigid.resolve_contacts(store, self.table, np.asarray(world.gravity, dtype=np.float64), dt,
                                                self.contact_cache)
         if len(self._held):
@@ -90,14 +108,16 @@ class BodySystem:
             near = self.coupling.count_near(world, dt)
         self.coupling.upload(store, near, up)
 
-    def end(self, world, dt: float):
+    def end(self, world, dt: float, in_table: bool = False):
         """After the particles' substep: their impulses (and held contacts), the bodies'
-        contacts again, then the committed poses."""
+        contacts again, then the committed poses. in_table: the collider table's end poses
+        are set to the committed ones (the start poses stay), for the particles' last step
+        of the substep (ImpulseSolver.store_out_of_bodies), which the particles' substep
+        then takes before it stores them (collisions.py)."""
         store = self.store
+        self.open = False
         impulses, torques, held = self.coupling.collect(store, world.particles.count)
-        for b in range(store.count):
-            store.v[b] = store.v[b] - impulses[b] / store.mass[b]
-            store.L[b] = store.L[b] - torques[b]
+        self._take(impulses, torques)
         self.held = rigid.resolve_held(store, held, dt)
         self._held = held
         if len(held) or np.any(impulses) or np.any(torques):
@@ -113,16 +133,37 @@ class BodySystem:
             entry.center, entry.rotation = store.shape_pose(b)
             entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates((entry.center, entry.rotation),
                                                                                  (entry.center, entry.rotation), dt)
+        if in_table:
+            self.table.replace_poses({id(store.entries[b]): (self._start_poses[b], store.shape_pose(b))
+                                      for b in range(store.count)})
         # (the table keeps the substep's poses until the next substep's `advance`, or the
         # scene's commit_poses at the end of the frame)
+
+    def take_pushes(self, world):
+        """After the particles were stored out of the bodies at their committed poses
+        (ImpulseSolver.store_out_of_bodies): what the particles a body pushed got from it,
+        taken from its velocities for the next substep (its pose stays as committed). (The
+        pushes skip held particles, so the ledger holds no held contact here.)"""
+        impulses, torques, _ = self.coupling.collect(self.store, world.particles.count, keep_counts=False)
+        self._take(impulses, torques)
+
+    def _take(self, impulses, torques):
+        """The impulses and torques the particles got from each body, taken from its momentum
+        and angular momentum."""
+        store = self.store
+        for b in range(store.count):
+            store.v[b] = store.v[b] - impulses[b] / store.mass[b]
+            store.L[b] = store.L[b] - torques[b]
 
     def _set_table_poses(self, predicted, dt):
         """Each body's row of the table: from its pose now to the predicted one."""
         store = self.store
         rows = {}
+        self._start_poses = []
         for b, (x1, R1) in enumerate(predicted):
             entry = store.entries[b]
             pose0 = store.shape_pose(b)
+            self._start_poses.append(pose0)
             pose1 = store.shape_pose(b, x1, R1)
             entry.center, entry.rotation = pose0
             entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates(pose0, pose1, dt)

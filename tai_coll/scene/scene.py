@@ -40,8 +40,8 @@ class Scene:
         substeps * dt seconds. Or "auto": every frame of frame_dt seconds (default 1/60) is cut
         into as many equal substeps as the scene needs right then (docs/physics.md 3): the
         solver's stability limit (the stiffest penalty contact's recommended dt, tc.params)
-        and a travel limit (no particle moves more than `cfl` of the smallest radius in a
-        substep, gravity's acceleration included), at most `max_substeps` (default 1000) and no
+        and a travel limit (no particle, and no point of a rigid body, moves more than `cfl`
+        of the smallest radius in a substep, gravity's acceleration included), at most `max_substeps` (default 1000) and no
         longer than `dt` if given; `stats()` reports each frame's choice.
     solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact);
         `PenaltySolver(...)` resolves them with forces instead.
@@ -68,10 +68,11 @@ class Scene:
         domain = None if domain is None else validate.box("domain", domain)
         self._particles = ParticleStore()
         self._colliders = ColliderTable()
-        # what the solver is handed each call (solvers/base.py)
-        self._world = World(particles=self._particles, colliders=self._colliders, gravity=gravity, domain=domain)
-        self._pairs = None  # particle-particle collisions, off until enabled
         self._bodies = BodySystem(self._colliders)  # rigid bodies (bodies/system.py)
+        # what the solver is handed each call (solvers/base.py)
+        self._world = World(particles=self._particles, colliders=self._colliders, gravity=gravity, domain=domain,
+                            bodies=self._bodies)
+        self._pairs = None  # particle-particle collisions, off until enabled
         self._body_handles = []
         self._emitters = []  # sources of particles (emitters.py), in the order added
         self._sinks = Sinks()  # regions that remove particles
@@ -289,7 +290,7 @@ class Scene:
                         self.solver.pair_substep(world, self._pairs, self.dt)
                     else:
                         self.solver.advance(world, self.dt, 1)
-                    if bodies is not None:
+                    if bodies is not None and bodies.open:  # (unless the particles' substep ended it)
                         bodies.end(world, self.dt)
                     if sinks and self._particles.count:
                         self._sinks.mark(self._particles)
@@ -344,7 +345,8 @@ class Scene:
         """substeps="auto": this frame's substeps (SubstepChoice.choose), dt and what set it."""
         limits = self._limits
         speed = self._particles.max_speed() if self.num_particles else 0.0
-        speed = max([speed] + [float(np.linalg.norm(e.velocity)) for e in self._emitters if not e.finished(self.time)])
+        speed = max([speed, self._bodies.max_speed()]
+                    + [float(np.linalg.norm(e.velocity)) for e in self._emitters if not e.finished(self.time)])
         n, limit = self._stepping.choose(None if limits is None else limits[0], speed,
                                          self._particles.min_radius, float(np.linalg.norm(self.gravity)))
         if limit == "max_substeps":

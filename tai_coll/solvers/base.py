@@ -33,6 +33,7 @@ class World:
     gravity: np.ndarray
     domain: tuple | None
     pair_contacts: bool = False  # whether particles collide with each other
+    bodies: object = None  # the scene's rigid bodies (bodies/system.py BodySystem), if any
 
     def domain_bounds(self) -> tuple:
         """(use_domain, lower corner, upper corner) as kernels take them (corners 0 without)."""

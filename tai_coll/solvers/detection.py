@@ -252,38 +252,51 @@ def detect(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0
 
 @ti.func
 def keep_out(c: ti.template(), groups: ti.template(), kinematic: ti.template(), x0: vec3, x1: vec3, r):
-    """Move x1 out of each collider to no deeper than x0 was (or to the surface): for
-    positions that another phase moved (particle-particle projection), where no velocity
-    approaches the collider and the contact passes would leave the penetration alone.
+    """Move x1 out of each collider that is not a rigid body to no deeper than x0 was (or to
+    the surface): for positions that another phase moved (particle-particle projection),
+    where no velocity approaches the collider and the contact passes would leave the
+    penetration alone. (Bodies: keep_out_of at the end of the substep, once they are
+    committed to their poses: a body's predicted pose, where the particles' passes meet it,
+    runs ahead of a body that they slow, and out of that pose a particle is pushed into its
+    neighbours; docs/physics.md 7.2.)"""
+    for ci in range(c.count):
+        if c.body[ci] < 0:
+            x1 = keep_out_of(c, groups, kinematic, ci, x0, x1, r)
+    return x1
+
+
+@ti.func
+def keep_out_of(c: ti.template(), groups: ti.template(), kinematic: ti.template(), ci, x0: vec3, x1: vec3, r):
+    """keep_out for collider ci: x1 moved out of its end pose to no deeper than x0 was in
+    its start pose.
 
     Out along the normal at x1, unless that normal points along the particle's path relative
     to the collider while x0 was outside: then x1 lies past the middle of a thin or fast
     collider, whose nearest face is the far one, and it goes back out by the side it came
     from, onto the plane through x0's contact point with x0's normal (which, for a convex
     collider, clears it)."""
-    for ci in range(c.count):
-        if (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] < r:
-            gap1 = 0.0
-            n1 = vec3(0.0, 1.0, 0.0)
-            for k in range(2):
-                phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0, r)
-                if k == 0:
-                    gap1, n1 = phi - r, n
-                    if gap1 >= 0.0:
-                        break
-                else:
-                    allowed = ti.min(phi - r, 0.0)
-                    if gap1 < allowed:
-                        start = x0
-                        n0 = n
-                        if ti.static(kinematic):
-                            start = carried(c, ci, x0)
-                            n0 = carried_normal(c, ci, n)
-                        if phi >= 0.0 and n1.dot(x1 - start) > 0.0 and n0.dot(n1) < 0.0:
-                            # through to the far side: back to the plane of x0's contact
-                            x1 += ti.max((start - x1).dot(n0) - (phi - r) + allowed, 0.0) * n0
-                        else:
-                            x1 += (allowed - gap1) * n1
+    if (x1 - c.center1[ci]).norm() - c.params[ci][BOUND_SLOT] < r:
+        gap1 = 0.0
+        n1 = vec3(0.0, 1.0, 0.0)
+        for k in range(2):
+            phi, n = collider_sdf(c, groups, ci, x1 if k == 0 else x0, k == 0, r)
+            if k == 0:
+                gap1, n1 = phi - r, n
+                if gap1 >= 0.0:
+                    break
+            else:
+                allowed = ti.min(phi - r, 0.0)
+                if gap1 < allowed:
+                    start = x0
+                    n0 = n
+                    if ti.static(kinematic):
+                        start = carried(c, ci, x0)
+                        n0 = carried_normal(c, ci, n)
+                    if phi >= 0.0 and n1.dot(x1 - start) > 0.0 and n0.dot(n1) < 0.0:
+                        # through to the far side: back to the plane of x0's contact
+                        x1 += ti.max((start - x1).dot(n0) - (phi - r) + allowed, 0.0) * n0
+                    else:
+                        x1 += (allowed - gap1) * n1
     return x1
 
 

@@ -33,11 +33,12 @@ import taichi as ti
 
 from .. import validate
 from ..geometry import kinds
+from ..response.exchange import body_law, held
 from ..response.laws import WET_LAWS
 from ..response.repulsion import RepulsionField, pack
 from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, host_vector, vec3
 from .base import Solver
-from .detection import keep_out
+from .detection import keep_out, keep_out_of, surface_velocity
 from .integrate import flag, state_status, store, symplectic_euler, try_flight_in_front, try_free_flight
 from .resolve import SCHEMES, last_resort6, resolve_particle, resolve_passes
 
@@ -208,6 +209,54 @@ def impulse_resolve_candidates(particles: ParticleArgs, colliders: ColliderArgs,
                           store_state)
 
 
+@ti.kernel
+def store_out_of_bodies(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.template(),
+                        wet_law: ti.template(), allow: ti.template(), use_domain: ti.template(), domain_lo: vec3,
+                        domain_hi: vec3, candidate_x: ARRAY, candidate_v: ARRAY) -> float:
+    """Store the candidates as the new state, each kept out of the rigid bodies at the poses
+    they were committed to (the table's end poses; their start poses are the substep's):
+    after the particles' last collider passes and the bodies' own end of the substep
+    (docs/physics.md 7.2). A body that went further than its particles (split among more
+    particles than met it, it was slowed less than they saw) has moved them: each particle
+    it pushes out meets it, inelastically, with the two-body law, and books the impulse in
+    the ledger (BodySystem.take_pushes takes it from the body). allow: the push is an error
+    of the body's position, not a blow, and becomes overlap allowance (m) with the
+    particle's neighbours (which the pair passes then remove by positions, at their push
+    speed, docs/physics.md 5.2.1). A particle held by its supports (shock propagation), or
+    that the push would put into a collider that is not a body, is left where it is: the body
+    stopped on it (BodySystem.end), and the depth is the body's. Returns the longest push (m).
+    (The clearances are left unwritten: the store's version moves on, so none is trusted.)"""
+    longest = 0.0
+    for i in range(particles.count):
+        if particles.flags[i] == ACTIVE:
+            x0 = particles.x[i]
+            x1 = candidate_x[i]
+            v1 = candidate_v[i]
+            r = particles.radius[i]
+            pushed = 0.0
+            for ci in range(colliders.count):
+                if colliders.body[ci] >= 0:
+                    x_kept = keep_out_of(colliders, groups, True, ci, x0, x1, r)
+                    out = x_kept - x1
+                    length = out.norm()
+                    if length > 0.0:
+                        n = out / length
+                        point = x_kept - r * n
+                        vs = surface_velocity(colliders, ci, point)
+                        if not held(colliders, i, n, v1, vs) and all(
+                                keep_out(colliders, groups, True, x0, x_kept, r) == x_kept):
+                            x1 = x_kept
+                            pushed += length
+                            v1, _ = body_law(colliders, ci, i, 1.0 / particles.mass[i], x1, v1, n, vs, point, 0.0,
+                                             0.0, wet_law)
+            if pushed > 0.0:
+                ti.atomic_max(longest, pushed)
+                if ti.static(allow):
+                    particles.allowance[i] = particles.allowance[i] + pushed
+            store(particles, i, x0, particles.v[i], x1, v1, use_domain, domain_lo, domain_hi)
+    return longest
+
+
 @ti.func
 def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(), kinematic: ti.template(), i,
                       clearances: ti.template(), reuse_clearance, candidate_x: ti.template(),
@@ -237,8 +286,8 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                     clearance = -1.0
                     # A position kept out of a collider keeps no velocity into it either: the
                     # contact passes leave motion within the slop alone, and a particle held
-                    # against a ceiling (a body resting on a pile, docs/physics.md 7.2) would
-                    # otherwise carry the push of its neighbours on as velocity.
+                    # against a collider would otherwise carry the push of its neighbours on as
+                    # velocity.
                     out = x_kept - x1
                     into = v1.dot(out)
                     if into < 0.0:
@@ -345,6 +394,19 @@ class ImpulseSolver(Solver):
                                    candidate_x=candidate_x, candidate_v=candidate_v)
         if store_state:
             store.clearances_written(table)
+
+    def store_out_of_bodies(self, world, candidate_x, candidate_v, allow: bool) -> float:
+        """Store candidates that resolve_candidates(store_state=False) left, kept out of the
+        rigid bodies at their committed poses (the table's end poses: bodies/system.py,
+        BodySystem.end with in_table); allow: pushes become overlap allowances. Returns the
+        longest push (m)."""
+        store, table = world.particles, world.colliders
+        use_domain, lo, hi = world.domain_bounds()
+        store.mark_moved()
+        return store_out_of_bodies(particles=store.args, colliders=table.args, groups=table.groups,
+                                   wet_law=WET_LAWS[self.wet_law], allow=allow, use_domain=use_domain,
+                                   domain_lo=host_vector(lo), domain_hi=host_vector(hi), candidate_x=candidate_x,
+                                   candidate_v=candidate_v)
 
     def advance(self, world, dt: float, substeps: int = 1):
         """Advance every active particle by `substeps` substeps of dt against the colliders,

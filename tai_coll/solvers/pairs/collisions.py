@@ -267,8 +267,19 @@ class ParticleCollisions:
             if self._pairs:
                 gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
                                          self.changed, self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels)
-        # 6. colliders last, and the new state
-        solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True)
+        # 6. colliders last, and the new state. With rigid bodies, their substep ends first:
+        #    the particles are then kept out of them at the poses they were committed to, not
+        #    the predicted ones (docs/physics.md 7.2)
+        bodies = world.bodies if world.bodies is not None and world.bodies.open else None
+        solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=bodies is None)
+        if bodies is not None:
+            bodies.end(world, dt, in_table=True)
+            allow = math.isfinite(settings.max_push_speed)
+            pushed = solver.store_out_of_bodies(world, self.x1, self.v1, allow)
+            if pushed > 0.0:
+                bodies.take_pushes(world)
+                if allow:
+                    self._allowance_left = max(self._allowance_left, pushed)
         if support:
             table.set_support(None, None)
         self._latest_counts = self._counts[0]
