@@ -130,7 +130,14 @@ def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: 
     # 6.2: the body does not give way; what the particle gives it, its supports take)
     m = c.material[ci]
     v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
-    delta = seen + v_rel - v
+    return _share(c, ci, b, slot, inv_mass, x_ref, v, seen + v_rel - v, inv_body, inv_inertia)
+
+
+@ti.func
+def _share(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, delta: vec3, inv_body, inv_inertia):
+    """The change `delta` the particle's velocity v would take from a body of infinite mass,
+    shared with body b by inverse masses (docs/physics.md 7.2) and booked. Returns (the
+    particle's new velocity, whether it changed)."""
     size = delta.norm()
     changed = False
     if size > 0.0:
@@ -143,6 +150,27 @@ def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: 
         v += inv_mass * impulse
         _book(c, b, slot, impulse, arm.cross(impulse))
     return v, changed
+
+
+@ti.func
+def body_stop(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3) -> vec3:
+    """The failsafe against body collider ci (docs/physics.md 3.4 and 7.2): particle i stops
+    relative to the body's surface at `point` as the two bodies share it, perfectly inelastic
+    in every direction, and books the impulse. (Stopping it at the surface velocity alone, as
+    against a collider of infinite mass, would give the body nothing: momentum was lost, 7 % of
+    a 0.1 kg body's in a crowd.) A body resting on what holds it (n against body_up) does not
+    give way. Returns the particle's new velocity."""
+    b = c.body[ci]
+    slot = ledger_slot(c, i, b)
+    seen = vs
+    inv_body = 0.0
+    inv_inertia = ti.Matrix.zero(float, 3, 3)
+    if n.dot(c.body_up[ci]) <= SUPPORT_COS:
+        seen = seen_velocity(c, ci, slot, vs, point)
+        inv_body = c.body_inv_mass[ci]
+        inv_inertia = c.body_inv_inertia[ci]
+    v_new, _ = _share(c, ci, b, slot, inv_mass, x_ref, v, seen - v, inv_body, inv_inertia)
+    return v_new
 
 
 @ti.func

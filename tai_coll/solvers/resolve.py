@@ -13,7 +13,7 @@ without compile none of the relative-motion code in, docs/physics.md 3.6).
 import taichi as ti
 
 from ..geometry import kinds
-from ..response.exchange import body_law, held
+from ..response.exchange import body_law, body_stop, held
 from ..response.laws import respond
 from ..response.penalty import FIELD_NONE, apply_repulsion
 from ..types import STAT_FAILSAFE, STAT_REPULSION, vec3
@@ -217,9 +217,16 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
                 break
     if ti.static(failsafe):
         if not resolved:
-            # Failsafe (docs/physics.md 3.4): stop relative to the collider, carried with it.
-            v1 = last_vs
+            # Failsafe (docs/physics.md 3.4): stop relative to the collider, carried with it
+            # (a body takes its share, exchange.body_stop)
+            body = False
+            if ti.static(kinematic):
+                body = c.body[ci] >= 0
             x1 = last_start + push
+            if body:
+                v1 = body_stop(c, ci, i, inv_mass, x1, v1, n, last_vs, x1 - r * n)
+            else:
+                v1 = last_vs
             ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
     return x1, v1, clearance, apart, level, others
 
