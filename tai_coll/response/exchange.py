@@ -119,6 +119,19 @@ def body_law(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, v
 def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: vec3, vs: vec3, point: vec3,
               restitution, wet_law: ti.template()):
     """body_law for a particle free to move: the impulse shared by inverse masses."""
+    seen, inv_body, inv_inertia = _body_side(c, ci, slot, n, vs, point)
+    m = c.material[ci]
+    v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
+    return _share(c, ci, b, slot, inv_mass, x_ref, v, seen + v_rel - v, inv_body, inv_inertia)
+
+
+@ti.func
+def _body_side(c: ti.template(), ci, slot, n: vec3, vs: vec3, point: vec3):
+    """Body collider ci as particle (ledger slot) `slot` meets it at `point` with normal n:
+    (its surface velocity as the particle left it, its inverse mass and world inverse inertia
+    as the particle sees them). A body resting on what holds it, met from above (shock
+    propagation, docs/physics.md 6.2), does not give way: infinite mass, and what the particle
+    gives it, its supports take."""
     seen = vs
     inv_body = 0.0
     inv_inertia = ti.Matrix.zero(float, 3, 3)
@@ -126,11 +139,7 @@ def _exchange(c: ti.template(), ci, b, slot, inv_mass, x_ref: vec3, v: vec3, n: 
         seen = seen_velocity(c, ci, slot, vs, point)
         inv_body = c.body_inv_mass[ci]
         inv_inertia = c.body_inv_inertia[ci]
-    # (else lying on a body that rests on what holds it, shock propagation, docs/physics.md
-    # 6.2: the body does not give way; what the particle gives it, its supports take)
-    m = c.material[ci]
-    v_rel, dvn = respond(v - seen, n, restitution, m[1], m[2], wet_law)
-    return _share(c, ci, b, slot, inv_mass, x_ref, v, seen + v_rel - v, inv_body, inv_inertia)
+    return seen, inv_body, inv_inertia
 
 
 @ti.func
@@ -162,13 +171,7 @@ def body_stop(c: ti.template(), ci, i, inv_mass, x_ref: vec3, v: vec3, n: vec3, 
     give way. Returns the particle's new velocity."""
     b = c.body[ci]
     slot = ledger_slot(c, i, b)
-    seen = vs
-    inv_body = 0.0
-    inv_inertia = ti.Matrix.zero(float, 3, 3)
-    if n.dot(c.body_up[ci]) <= SUPPORT_COS:
-        seen = seen_velocity(c, ci, slot, vs, point)
-        inv_body = c.body_inv_mass[ci]
-        inv_inertia = c.body_inv_inertia[ci]
+    seen, inv_body, inv_inertia = _body_side(c, ci, slot, n, vs, point)
     v_new, _ = _share(c, ci, b, slot, inv_mass, x_ref, v, seen - v, inv_body, inv_inertia)
     return v_new
 
