@@ -3,6 +3,8 @@ solvers by closed forms and conservation laws, bodies on colliders through Scene
 
 The session runs in f64 (conftest.py): conservation is checked to round-off."""
 
+import warnings
+
 import numpy as np
 import pytest
 import trimesh
@@ -386,3 +388,16 @@ def test_auto_substeps_follow_a_fast_body():
     speed = 10.0 + 100.0 * 0.02
     assert scene.substeps - (1 / 60) * speed / (0.5 * 0.005) == pytest.approx(0.0, abs=1.0)  # (80)
     assert scene.stats()["substep_limit"] == "cfl"
+
+
+def test_a_body_faster_than_the_substeps_resolve_is_warned_about_once():
+    """A body crossing more than the smallest particle radius in a substep pushes the particles
+    it meets into each other (docs/physics.md 7.2): warned, once, with the dt that resolves it."""
+    scene = tc.Scene(gravity=(0.0, 0.0, 0.0), dt=1 / 600, substeps=10)
+    scene.add_particles(positions=[(0.5, 0.0, 0.0)], radius=0.005, mass=0.01)
+    scene.add_body(tc.Sphere(center=(0.0, 0.0, 0.0), radius=0.02), mass=0.001, velocity=(5.0, 0.0, 0.0))
+    with pytest.warns(RuntimeWarning, match=r"moves 8.33 mm in a substep .* dt <= 0.0005 s"):
+        scene.step()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        scene.step()

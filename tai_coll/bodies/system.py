@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import notices
 from . import rigid
 from .coupling import Coupling
 from .store import BodyStore, cross, orthonormal
@@ -62,6 +63,7 @@ class BodySystem:
         self.contact_cache = rigid.ContactCache()
         self.after_cache = rigid.ContactCache()
         self.open = False  # between begin and end of a substep
+        self._warned_travel = False  # whether warn_travel has warned (once)
         self._start_poses = []  # the bodies' shape poses at the open substep's start
 
     @property
@@ -79,6 +81,20 @@ class BodySystem:
             reach = shape.params[shape.BOUND_SLOT] + float(np.linalg.norm(center - store.x[b]))
             speed = max(speed, float(np.linalg.norm(store.v[b]) + np.linalg.norm(store.omega(b)) * reach))
         return speed
+
+    def warn_travel(self, dt: float, radius: float, time: float):
+        """Warn once when a body moves more than `radius` (the smallest particle's) in a
+        substep of dt (docs/physics.md 7.2): the particles' passes then meet it where it is
+        predicted, far from where their impulses leave it, and it pushes them into each other."""
+        speed = self.max_speed()
+        if speed * dt > radius and not self._warned_travel:
+            self._warned_travel = True
+            notices.warn(
+                f"a rigid body moves {speed * dt * 1e3:.3g} mm in a substep (its fastest point at {speed:.3g} m/s, "
+                f"dt = {dt:.3g} s) at t = {time:.6g} s, more than the smallest particle radius ({radius * 1e3:.3g} "
+                f"mm): particles it crosses that fast are pushed into each other, which can add energy. Use "
+                f"substeps='auto' (bodies then move at most cfl of the smallest radius a substep) or "
+                f"dt <= {0.5 * radius / speed:.3g} s", RuntimeWarning)
 
     def begin(self, world, dt: float):
         """Before the particles' substep; the table's kinematic colliders are at this

@@ -253,6 +253,7 @@ def save_state(scene, path) -> Path:
             "contact_cache": w.encode("bodies.contact_cache", bodies.contact_cache.state()),
             "after_cache": w.encode("bodies.after_cache", bodies.after_cache.state()),
             "counts": w.encode("bodies.counts", bodies.coupling.counts),
+            "warned_travel": bool(bodies._warned_travel),
         },
         "emitters": [w.encode(f"emitter{k}", e.state()) for k, e in enumerate(scene._emitters)],
         "removed": int(scene._sinks.removed),
@@ -325,6 +326,7 @@ def load_state(scene, path):
     bodies.contact_cache.restore(r.decode(b["contact_cache"]))
     bodies.after_cache.restore(r.decode(b["after_cache"]))
     bodies.coupling.counts = r.decode(b["counts"])
+    bodies._warned_travel = b.get("warned_travel", False)  # (states saved before it was kept: not warned)
     for emitter, m in zip(scene._emitters, meta["emitters"]):
         emitter.restore(r.decode(m))
     scene._sinks.removed = meta["removed"]

@@ -274,6 +274,8 @@ class Scene:
                 self._choose_substeps()
             world = self._world
             bodies = self._bodies if self._bodies.count else None
+            if bodies is not None and self.num_particles:
+                bodies.warn_travel(self.dt, self._particles.min_radius, self.time)
             if self._pairs is not None or kinematic or sinks or emitting:
                 # Particles interact, colliders move (bodies among them: new poses before every
                 # substep), particles enter or leave: every substep is its own sequence of phases.
