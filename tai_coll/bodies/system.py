@@ -64,7 +64,6 @@ class BodySystem:
         self.after_cache = rigid.ContactCache()
         self.open = False  # between begin and end of a substep
         self._warned_travel = False  # whether warn_travel has warned (once)
-        self._start_poses = []  # the bodies' shape poses at the open substep's start
 
     @property
     def count(self) -> int:
@@ -86,8 +85,10 @@ class BodySystem:
         """Warn once when a body moves more than `radius` (the smallest particle's) in a
         substep of dt (docs/physics.md 7.2): the particles' passes then meet it where it is
         predicted, far from where their impulses leave it, and it pushes them into each other."""
+        if self._warned_travel:
+            return
         speed = self.max_speed()
-        if speed * dt > radius and not self._warned_travel:
+        if speed * dt > radius:
             self._warned_travel = True
             notices.warn(
                 f"a rigid body moves {speed * dt * 1e3:.3g} mm in a substep (its fastest point at {speed:.3g} m/s, "
@@ -132,6 +133,7 @@ class BodySystem:
         then takes before it stores them (collisions.py)."""
         store = self.store
         self.open = False
+        starts = [store.shape_pose(b) for b in range(store.count)] if in_table else None  # (before the commit)
         impulses, torques, held = self.coupling.collect(store, world.particles.count)
         self._take(impulses, torques)
         self.held = rigid.resolve_held(store, held, dt)
@@ -150,7 +152,7 @@ class BodySystem:
             entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates((entry.center, entry.rotation),
                                                                                  (entry.center, entry.rotation), dt)
         if in_table:
-            self.table.replace_poses({id(store.entries[b]): (self._start_poses[b], store.shape_pose(b))
+            self.table.replace_poses({id(store.entries[b]): (starts[b], store.shape_pose(b))
                                       for b in range(store.count)})
         # (the table keeps the substep's poses until the next substep's `advance`, or the
         # scene's commit_poses at the end of the frame)
@@ -175,11 +177,9 @@ class BodySystem:
         """Each body's row of the table: from its pose now to the predicted one."""
         store = self.store
         rows = {}
-        self._start_poses = []
         for b, (x1, R1) in enumerate(predicted):
             entry = store.entries[b]
             pose0 = store.shape_pose(b)
-            self._start_poses.append(pose0)
             pose1 = store.shape_pose(b, x1, R1)
             entry.center, entry.rotation = pose0
             entry.velocity, entry.angular_velocity = BodyMotion(store, b).rates(pose0, pose1, dt)

@@ -40,9 +40,9 @@ class Scene:
         substeps * dt seconds. Or "auto": every frame of frame_dt seconds (default 1/60) is cut
         into as many equal substeps as the scene needs right then (docs/physics.md 3): the
         solver's stability limit (the stiffest penalty contact's recommended dt, tc.params)
-        and a travel limit (no particle, and no point of a rigid body, moves more than `cfl`
-        of the smallest radius in a substep, gravity's acceleration included), at most `max_substeps` (default 1000) and no
-        longer than `dt` if given; `stats()` reports each frame's choice.
+        and a travel limit (no particle or point of a body moves more than `cfl` of the
+        smallest radius in a substep, gravity's acceleration included), at most `max_substeps`
+        (default 1000) and no longer than `dt` if given; `stats()` reports each frame's choice.
     solver: how contacts are resolved; default `ImpulseSolver()` (elastic, then contact);
         `PenaltySolver(...)` resolves them with forces instead.
     domain: optional ((x0, y0, z0), (x1, y1, z1)) box in m. A particle that leaves it is
