@@ -21,9 +21,9 @@ from ..types import ACTIVE, STAT_NAMES, ParticleArgs, SpinArgs, new_ndarray
 MAX_IDS = 2**31 - 1
 
 QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance", "rest", "anchor")
-#: A particle's kept separating plane (solvers/impulse.py): its direction (3), level and the
-#: other colliders' clearance beyond the particle's kept clearance.
-SEPARATION_SIZE = 5
+#: A particle's kept separating plane (solvers/impulse.py): its direction (3), level, the
+#: other colliders' clearance beyond the particle's kept clearance, and the collider's index.
+SEPARATION_SIZE = 6
 #: Every array the store keeps per particle, in the order of _stored_arrays and _permute's arguments.
 STORED = QUANTITIES + ("clearance", "separation", "ids")
 

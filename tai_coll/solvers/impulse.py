@@ -40,7 +40,8 @@ from ..types import ACTIVE, ARRAY, NON_FINITE, ColliderArgs, ParticleArgs, host_
 from .base import Solver
 from .detection import keep_out, keep_out_of, surface_velocity
 from .integrate import flag, state_status, store, symplectic_euler, try_flight_in_front, try_free_flight
-from .resolve import SCHEMES, last_resort6, resolve_particle, resolve_passes
+from .lone_plane import lone_plane_substep
+from .resolve import ELASTIC_CONTACT, SCHEMES, last_resort6, resolve_particle, resolve_passes
 
 #: A particle's kept clearance when the last launch found it at a fixed point of its substep
 #: (impulse_substep). Negative, so every other reader takes it for "unknown" and queries.
@@ -69,9 +70,11 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
     With still colliders a query also gives the nearest collider's separating plane (apart,
     level) and the other colliders' clearance (others), which let the particle fly in closed
     form while it stays in front of the plane (try_flight_in_front, docs/physics.md 3.7). They
-    are kept in `separations` (one row per particle: apart, level, and others less the
-    particle's clearance, which free flight reduces by the same path) for the next launch
-    while the clearances this kernel wrote are the ones kept (reuse_separation).
+    are kept in `separations` (one row per particle: apart, level, others less the particle's
+    clearance, which free flight reduces by the same path, and the collider apart belongs to)
+    for the next launch while the clearances this kernel wrote are the ones kept
+    (reuse_separation). Where that collider is a plane and the others lie beyond the step, the
+    substep takes the plane's short path (lone_plane.py, docs/physics.md 3.8).
     A substep that leaves a particle's state bit for bit as it was (a particle at rest on a
     still collider: gravity's dv cancelled by the contact, x1 = x0) would do exactly the same
     in every later substep of the launch, so the particle is done: an exact shortcut, not an
@@ -97,7 +100,7 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 if ti.static(not kinematic):
                     if not reuse_separation:
                         # (the plane kept is not this clearance's: the next launch must not read it)
-                        separations[i] = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+                        separations[i] = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0, -1.0])
             else:
                 status = ACTIVE
                 at_rest = False
@@ -107,6 +110,7 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 apart = vec3(0.0, 0.0, 0.0)
                 level = 0.0
                 others = -1.0
+                plane = -1  # the collider `apart` belongs to (-1: none, or not known)
                 if ti.static(not kinematic):
                     if reuse_separation and clearance >= 0.0:
                         # the plane the last launch left, and the others' clearance, kept as
@@ -116,6 +120,7 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                         apart = vec3(kept[0], kept[1], kept[2])
                         level = kept[3]
                         others = clearance + kept[4]
+                        plane = ti.cast(kept[5], ti.i32)
                 s = 0
                 while s < n_substeps:
                     planar = False
@@ -160,10 +165,21 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                     # plane, which the launch then flies in front of in closed form; stepping
                     # through the clearance first costs a few substeps and queries all the same.)
                     if not clear:
-                        x1, v1, clearance, apart, level, others = resolve_particle(
-                            particles, colliders, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
-                            max_iterations, elastic_iterations, last_resort, max_push_speed, slop_fraction,
-                            rest_speed, clear_start)
+                        done = False
+                        if ti.static(not kinematic and scheme == ELASTIC_CONTACT):
+                            # a lone still plane within reach (a floor): its own short path
+                            # (lone_plane.py), which leaves anything else to the general scheme
+                            if planar and clear_start and plane >= 0 and others >= step:
+                                if colliders.kind[plane] == kinds.PLANE:
+                                    r = particles.radius[i]
+                                    done, x1, v1, clearance, apart, level, others = lone_plane_substep(
+                                        colliders, plane, i, x0, v0, x1, v1, r, slop_fraction * r, dt,
+                                        elastic_iterations > 0, others, wet_law)
+                        if not done:
+                            x1, v1, clearance, apart, level, others, plane = resolve_particle(
+                                particles, colliders, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
+                                max_iterations, elastic_iterations, last_resort, max_push_speed, slop_fraction,
+                                rest_speed, clear_start)
                         unchanged = all(x1 == x0) and all(v1 == v0)
                     status = state_status(x1, v1, use_domain, domain_lo, domain_hi)
                     if status == NON_FINITE:
@@ -180,7 +196,8 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                 if ti.static(not kinematic):
                     if clearance < 0.0:
                         apart = vec3(0.0, 0.0, 0.0)  # (read only with a clearance >= 0)
-                    separations[i] = ti.Vector([apart[0], apart[1], apart[2], level, others - clearance])
+                    separations[i] = ti.Vector([apart[0], apart[1], apart[2], level, others - clearance,
+                                                ti.cast(plane, float)])
                 if at_rest:
                     clearances[i] = AT_REST
                 if status != ACTIVE:
@@ -278,7 +295,7 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
         else:
             if ti.static(contact_only):
                 r = p.radius[i]
-                x1, v1, clearance, apart, level, others = resolve_passes(
+                x1, v1, clearance, apart, level, others, _near = resolve_passes(
                     p, c, groups, kinematic, i, 1.0 / p.mass[i], x0, vec3(0.0, 0.0, 0.0), v0, x1, v1, r,
                     slop_fraction * r, dt, 0, max_iterations, False, True, wet_law)
                 x_kept = keep_out(c, groups, kinematic, x0, x1, r)
@@ -294,7 +311,7 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                         v1 -= (into / out.norm_sqr()) * out
                 x1 = x_kept
             else:
-                x1, v1, clearance, apart, level, others = resolve_particle(
+                x1, v1, clearance, apart, level, others, _nearest = resolve_particle(
                     p, c, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations,
                     elastic_iterations, last_resort, max_push_speed, slop_fraction, rest_speed, clearance >= 0.0)
         if ti.static(store_state):

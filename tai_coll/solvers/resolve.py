@@ -118,8 +118,8 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
     the confirming sweep is skipped (it would find nothing).
     Returns (x1, v1, clearance of x1, or -1 when unknown, and with it a separating direction
     `apart` and level: the collider nearest x1 lies behind the plane apart . y = level, offset
-    by the radius (detect's `apart`; after a skipped sweep the contact's tangent plane); and the
-    clearance from the other colliders).
+    by the radius (detect's `apart`; after a skipped sweep the contact's tangent plane); the
+    clearance from the other colliders; and the collider that direction belongs to, or -1).
     """
     v_start = v0
     elastic_left = elastic_passes
@@ -129,6 +129,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
     apart = vec3(0.0, 0.0, 0.0)
     level = 0.0
     others = -1.0
+    near_ci = -1
     last_vs = vec3(0.0, 0.0, 0.0)
     last_start = x0
     ci = -1
@@ -151,6 +152,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
             apart = nearest_apart
             level = apart.dot(x1) - near
             others = second
+            near_ci = nearest
             break
         last_vs = vs
         start = x0  # where the path relative to the collider starts: x0, carried if it moves
@@ -181,7 +183,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
                 if (ahead > 0.0 and kinds.is_convex(c.kind[ci]) and push.norm_sqr() == 0.0
                         and left >= (x1 - x0).norm()):
                     resolved = True
-                    clearance, apart, level, others = ti.min(ahead, left), n, n.dot(met), left
+                    clearance, apart, level, others, near_ci = ti.min(ahead, left), n, n.dot(met), left, ci
                     break
         else:
             if contact_done == contact_passes:
@@ -212,7 +214,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
             if (kinds.is_convex(c.kind[ci]) and is_still(c, ci) and push.norm_sqr() == 0.0
                     and left >= (x1 - x0).norm()):
                 resolved = True
-                apart, level, others = n, n.dot(met), left
+                apart, level, others, near_ci = n, n.dot(met), left, ci
                 clearance = ti.min(n.dot(x1) - level, left)
                 break
     if ti.static(failsafe):
@@ -228,7 +230,7 @@ def resolve_passes(p: ti.template(), c: ti.template(), groups: ti.template(), ki
             else:
                 v1 = last_vs
             ti.atomic_add(p.stats[STAT_FAILSAFE], 1)
-    return x1, v1, clearance, apart, level, others
+    return x1, v1, clearance, apart, level, others, near_ci
 
 
 @ti.func
@@ -272,7 +274,8 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
                      elastic_iterations, last_resort, max_push_speed, slop_fraction, rest_speed, clear_start):
     """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
     time t against the colliders with the chosen scheme. Returns (x1, v1, clearance, apart,
-    level, others): resolve_passes' (exact_time: clearance -1, unknown).
+    level, others, the collider `apart` belongs to): resolve_passes' (exact_time: clearance -1,
+    unknown, and collider -1).
     clear_start: x0 is known to be clear of every collider (a kept clearance >= 0 at x0); with
     still colliders (not `kinematic`) the search for start penetrations is then skipped, as it
     could find none."""
@@ -283,6 +286,7 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     apart = vec3(0.0, 0.0, 0.0)
     level = 0.0
     others = -1.0
+    near_ci = -1
     push = vec3(0.0, 0.0, 0.0)
     search = True
     if ti.static(not kinematic):
@@ -292,17 +296,17 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
             x1, v1, push = repel_start_penetrations(p, c, groups, kinematic, i, x0, v0, x1, v1, r, p.mass[i], slop,
                                                     dt, last_resort, max_push_speed, wet_law)
     if ti.static(scheme == SIMPLE):
-        x1, v1, clearance, apart, level, others = resolve_passes(
+        x1, v1, clearance, apart, level, others, near_ci = resolve_passes(
             p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt, 0, 1, True, False, wet_law)
     elif ti.static(scheme == MICRO):
-        x1, v1, clearance, apart, level, others = resolve_passes(
+        x1, v1, clearance, apart, level, others, near_ci = resolve_passes(
             p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt, 0, max_iterations, True, True,
             wet_law)
     elif ti.static(scheme == ELASTIC_CONTACT):
-        x1, v1, clearance, apart, level, others = resolve_passes(
+        x1, v1, clearance, apart, level, others, near_ci = resolve_passes(
             p, c, groups, kinematic, i, inv_mass, x0, push, v0, x1, v1, r, slop, dt, elastic_iterations,
             max_iterations, False, True, wet_law)
     else:
         x1, v1 = resolve_exact_time(p, c, groups, kinematic, i, inv_mass, x0 + push, v1, r, slop, dt,
                                     max_iterations, rest_speed, wet_law)
-    return x1, v1, clearance, apart, level, others
+    return x1, v1, clearance, apart, level, others, near_ci
