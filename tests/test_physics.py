@@ -682,7 +682,7 @@ def test_a_particle_at_rest_is_skipped_until_the_substep_changes_and_then_slides
 
 
 # ---------------------------------------------------------------- a lone still plane (docs/physics.md 3.8)
-@pytest.mark.parametrize("elastic_iterations", [1, 0])
+@pytest.mark.parametrize("elastic_iterations", [1, 0, 2])
 def test_lone_plane_path_agrees_with_the_general_scheme(elastic_iterations):
     """Particles bouncing and sliding on a tilted, raised floor (wet friction) beside a wall:
     where one still plane is all a substep can reach, the impulse kernel resolves it on its

@@ -174,7 +174,7 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                                     r = particles.radius[i]
                                     done, x1, v1, clearance, apart, level, others = lone_plane_substep(
                                         colliders, plane, i, x0, v0, x1, v1, r, slop_fraction * r, dt,
-                                        elastic_iterations > 0, others, wet_law)
+                                        elastic_iterations, others, wet_law)
                         if not done:
                             x1, v1, clearance, apart, level, others, plane = resolve_particle(
                                 particles, colliders, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,

@@ -8,11 +8,11 @@ it knows from a query that the nearest collider is plane `ci` and that every oth
 is farther from the candidate than the candidate's step (the kept `others`): the general
 sweep could then meet no collider but that plane. The path makes the general scheme's
 decisions for it, with the same functions (the plane's distance and crossing, the approach
-test and the law) on the same values, and commits only where the general scheme ends after
-its first sweep: nothing met; an elastic pass that leaves the candidate in front of the
-plane; a contact pass. Anything else (an elastic pass that needs a second sweep, a step too
-long for the others' clearance) returns `done` False, and the caller runs the general scheme
-on the same candidate. What it saves is the general scheme's square roots: a still
+test and the law) on the same values, and commits only where the general scheme ends within
+two sweeps: nothing met; an elastic pass that leaves the candidate in front of the plane; an
+elastic pass, then a second sweep that meets nothing or one contact pass; a contact pass.
+Anything else (more elastic passes, a contact whose result the others' bound does not clear)
+returns `done` False, and the caller runs the general scheme on the same candidate. What it saves is the general scheme's square roots: a still
 collider's surface velocity is zero, a plane's sweep needs no path length (its crossing
 alone decides), and the clearances it reports take the other colliders' kept bound less an
 upper bound of the step (the sum of the step's components), so they are valid, if shorter.
@@ -58,23 +58,12 @@ def approaches(v: vec3, n: vec3) -> bool:
 
 
 @ti.func
-def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1: vec3, r, slop, dt, elastic_first,
-                       others, wet_law: ti.template()):
-    """Resolve particle i's candidate (x1, v1) from (x0, v0) against the still plane ci, the
-    only collider within its reach (`others`: a lower bound of the other colliders' distance
-    from x1, at least the step |x1 - x0|; x0 known clear of every collider). elastic_first:
-    the scheme's elastic pass (restitution, on v0) comes first. Returns (done, x1, v1,
-    clearance, apart, level, others) as resolve.resolve_passes returns them; done False: the
-    general scheme must resolve this candidate (the other values are then meaningless)."""
-    done = False
-    clearance = -1.0
-    apart = vec3(ZERO)
-    level = 0.0
-    left = others
+def sweep(c: ti.template(), ci, x0: vec3, x1: vec3, r, slop):
+    """detection.detect's tests for plane ci alone, path x0 -> x1: (gap of x1, whether the path
+    meets the plane, the normal there, when: a fraction of the substep). A clear end (gap >= 0)
+    meets it only by crossing it, which a sphere whose centre ends in front of it cannot."""
     n1 = plane_normal(c, ci, True)
     gap1 = (x1 - c.center1[ci]).dot(n1) - r
-    # detection.detect's tests for this plane. A clear end (gap1 >= 0) meets it only by
-    # crossing it, which a sphere whose centre ends in front of it cannot: no contact.
     candidate = False
     n = n1
     t = 0.0
@@ -85,39 +74,74 @@ def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1
         if candidate and gap0 >= 0.0:
             n = n1
             candidate, t = plane_heights_crossing((x0 - c.center1[ci]).dot(n1), (x1 - c.center1[ci]).dot(n1), r)
-    found = False
-    alt = False
+    return gap1, candidate, n, t
+
+
+@ti.func
+def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1: vec3, r, slop, dt, elastic_passes,
+                       others, wet_law: ti.template()):
+    """Resolve particle i's candidate (x1, v1) from (x0, v0) against the still plane ci, the
+    only collider within its reach (`others`: a lower bound of the other colliders' distance
+    from x1, at least the step |x1 - x0|; x0 known clear of every collider). elastic_passes:
+    the scheme's elastic passes (restitution, on v0), which come first (this path does one). Returns (done, x1, v1,
+    clearance, apart, level, others) as resolve.resolve_passes returns them; done False: the
+    general scheme must resolve this candidate (the other values are then meaningless).
+
+    As resolve_passes: a sweep; the elastic pass where v(t) approaches (then, unless it leaves
+    the candidate in front of the plane, a second sweep with the candidate's velocity); a
+    contact pass where the candidate's velocity approaches. A contact pass whose result the
+    bound on the others does not clear is left to the general scheme."""
+    done = False
+    clearance = -1.0
+    apart = vec3(ZERO)
+    level = 0.0
+    left = others
+    xc, vc = x1, v1  # the candidate as the passes leave it
+    elastic = elastic_passes > 0
     vs = vec3(ZERO)  # (a still collider's surface)
-    if candidate:
-        found = approaches(v0 if elastic_first else v1, n)
-        alt = approaches(v1, n)
-    met = x0 + t * (x1 - x0)
-    if found and elastic_first:
-        # the elastic pass: the law with restitution on v(t), its change added to the candidate
-        v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, v0, n, vs, c.material[ci][0], wet_law)
-        dv = v_new - v0
-        x1_elastic = x1 + dt * dv
-        left = others - longest(x1_elastic - x1)
-        ahead = n.dot(x1_elastic - met)
-        if ahead > 0.0 and left >= longest(x1_elastic - x0):
-            done = True
-            x1, v1 = x1_elastic, v1 + dv
-            clearance, apart, level = ti.min(ahead, left), n, n.dot(met)
-    elif found or alt:
-        # a contact pass (e = 0): the path to the contact, then the new velocity after it
-        v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, v1, n, vs, 0.0, wet_law)
-        x1_contact = x0 + t * (x1 - x0) + (1.0 - t) * (vec3(ZERO) + dt * (v_new - vs))
-        left = others - longest(x1_contact - x1)
-        if left >= longest(x1_contact - x0):
-            done = True
-            x1, v1 = x1_contact, v_new
-            apart, level = n, n.dot(met)
-            clearance = ti.min(n.dot(x1) - level, left)
-    elif gap1 <= others:
-        # nothing met, and the plane is the nearest collider
-        done = True
-        clearance = gap1
-        if gap1 >= 0.0:
-            apart = n1
-        level = apart.dot(x1) - gap1
+    for _ in range(2):
+        gap1, candidate, n, t = sweep(c, ci, x0, xc, r, slop)
+        found = False
+        alt = False
+        if candidate:
+            found = approaches(v0 if elastic else vc, n)
+            alt = approaches(vc, n)
+        met = x0 + t * (xc - x0)
+        if found and elastic:
+            # the elastic pass: the law with restitution on v(t), its change added to the candidate
+            v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, v0, n, vs, c.material[ci][0], wet_law)
+            dv = v_new - v0
+            x1_elastic = xc + dt * dv
+            left -= longest(x1_elastic - xc)
+            ahead = n.dot(x1_elastic - met)
+            xc, vc = x1_elastic, vc + dv
+            elastic = False
+            if ahead > 0.0 and left >= longest(xc - x0):
+                done = True
+                clearance, apart, level = ti.min(ahead, left), n, n.dot(met)
+                break
+            if elastic_passes > 1:
+                break  # (another elastic pass follows: the general scheme's)
+        elif found or alt:
+            # a contact pass (e = 0): the path to the contact, then the new velocity after it
+            v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, vc, n, vs, 0.0, wet_law)
+            x1_contact = x0 + t * (xc - x0) + (1.0 - t) * (vec3(ZERO) + dt * (v_new - vs))
+            left -= longest(x1_contact - xc)
+            xc, vc = x1_contact, v_new
+            if left >= longest(xc - x0):
+                done = True
+                apart, level = n, n.dot(met)
+                clearance = ti.min(n.dot(xc) - level, left)
+            break
+        else:
+            if gap1 <= left:
+                # nothing met, and the plane is the nearest collider
+                done = True
+                clearance = gap1
+                if gap1 >= 0.0:
+                    apart = n
+                level = apart.dot(xc) - gap1
+            break
+    if done:
+        x1, v1 = xc, vc
     return done, x1, v1, clearance, apart, level, left
