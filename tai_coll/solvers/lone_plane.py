@@ -7,23 +7,26 @@ The impulse kernel (impulse.py) takes this path only in tables without moving co
 it knows from a query that the nearest collider is plane `ci` and that every other collider
 is farther from the candidate than the candidate's step (the kept `others`): the general
 sweep could then meet no collider but that plane. The path makes the general scheme's
-decisions for it, with the same functions (the plane's distance and crossing, the approach
-test and the law) on the same values, and commits only where the general scheme ends within
-two sweeps: nothing met; an elastic pass that leaves the candidate in front of the plane; an
-elastic pass, then a second sweep that meets nothing or one contact pass; a contact pass.
-Anything else (more elastic passes, a contact whose result the others' bound does not clear)
-returns `done` False, and the caller runs the general scheme on the same candidate. What it saves is the general scheme's square roots: a still
-collider's surface velocity is zero, a plane's sweep needs no path length (its crossing
-alone decides), and the clearances it reports take the other colliders' kept bound less an
-upper bound of the step (the sum of the step's components), so they are valid, if shorter.
+decisions for it, with the same formulas (the plane's distance and crossing as
+geometry.dispatch gives them, detection.approaching's test, the law of response.laws) on the
+same values, and commits only where the general scheme ends within two sweeps: nothing met; an
+elastic pass that leaves the candidate in front of the plane; an elastic pass, then a second
+sweep that meets nothing or one contact pass; a contact pass. Anything else (more elastic
+passes, a contact whose result the others' bound does not clear) returns `done` False, and the
+caller runs the general scheme on the same candidate. What it leaves out is the general
+scheme's generality: a still collider's surface velocity is zero, a plane's sweep needs no
+path length (its crossing alone decides), square roots are taken only where a bound leaves an
+answer open, and the clearances it reports take the other colliders' kept bound less an upper
+bound of the step (the sum of the step's components), so they are valid, if shorter. Its
+results agree with the general scheme's to round-off (tests/test_physics.py).
 """
 
 import taichi as ti
 
 from ..geometry.analytic import plane_heights_crossing
+from ..response.laws import respond
 from ..types import vec3
-from .detection import APPROACH_EPS, APPROACH_FLOOR, approaching
-from .resolve import apply_law
+from .detection import APPROACH_EPS, APPROACH_FLOOR
 
 ZERO = (0.0, 0.0, 0.0)
 
@@ -32,10 +35,10 @@ ZERO = (0.0, 0.0, 0.0)
 def plane_normal(c: ti.template(), ci, end_pose: bool) -> vec3:
     """The plane's unit normal at its end pose (or start pose): its rotation's second column,
     as geometry.dispatch.world_sdf takes it."""
-    rotation = c.rotation0[ci]
+    n = vec3(c.rotation0[ci][0, 1], c.rotation0[ci][1, 1], c.rotation0[ci][2, 1])
     if end_pose:
-        rotation = c.rotation1[ci]
-    return vec3(rotation[0, 1], rotation[1, 1], rotation[2, 1])
+        n = vec3(c.rotation1[ci][0, 1], c.rotation1[ci][1, 1], c.rotation1[ci][2, 1])
+    return n
 
 
 @ti.func
@@ -52,8 +55,8 @@ def approaches(v: vec3, n: vec3) -> bool:
     out = False
     if vn < -APPROACH_FLOOR:
         out = vn < -APPROACH_EPS * longest(v) - APPROACH_FLOOR
-        if not out:
-            out = approaching(v, vec3(ZERO), n)
+        if not out:  # (detection.approaching's test, the surface's speed being zero)
+            out = vn < -APPROACH_EPS * (v.norm() + 0.0) - APPROACH_FLOOR
     return out
 
 
@@ -83,9 +86,10 @@ def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1
     """Resolve particle i's candidate (x1, v1) from (x0, v0) against the still plane ci, the
     only collider within its reach (`others`: a lower bound of the other colliders' distance
     from x1, at least the step |x1 - x0|; x0 known clear of every collider). elastic_passes:
-    the scheme's elastic passes (restitution, on v0), which come first (this path does one). Returns (done, x1, v1,
-    clearance, apart, level, others) as resolve.resolve_passes returns them; done False: the
-    general scheme must resolve this candidate (the other values are then meaningless).
+    the scheme's elastic passes (restitution, on v0), which come first (this path does one).
+    Returns (done, x1, v1, clearance, apart, level, others) as resolve.resolve_passes returns
+    them; done False: the general scheme must resolve this candidate (the other values are
+    then meaningless).
 
     As resolve_passes: a sweep; the elastic pass where v(t) approaches (then, unless it leaves
     the candidate in front of the plane, a second sweep with the candidate's velocity); a
@@ -99,17 +103,35 @@ def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1
     xc, vc = x1, v1  # the candidate as the passes leave it
     elastic = elastic_passes > 0
     vs = vec3(ZERO)  # (a still collider's surface)
-    for _ in range(2):
-        gap1, candidate, n, t = sweep(c, ci, x0, xc, r, slop)
+    for _ in range(1 + ti.min(elastic_passes, 1)):  # (a sweep after an elastic pass; the count is
+        gap1, candidate, n, t = sweep(c, ci, x0, xc, r, slop)  # not a constant, so the loop stays a loop)
         found = False
         alt = False
         if candidate:
             found = approaches(v0 if elastic else vc, n)
             alt = approaches(vc, n)
         met = x0 + t * (xc - x0)
-        if found and elastic:
-            # the elastic pass: the law with restitution on v(t), its change added to the candidate
-            v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, v0, n, vs, c.material[ci][0], wet_law)
+        if not (found or alt):
+            if gap1 <= left:
+                # nothing met, and the plane is the nearest collider
+                done = True
+                clearance = gap1
+                if gap1 >= 0.0:
+                    apart = n
+                level = apart.dot(xc) - gap1
+            break
+        # the elastic pass (the law with restitution on v(t), its change added to the
+        # candidate) or a contact pass (e = 0 on the candidate's velocity: the path to the
+        # contact, then the new velocity after it); one call of the law serves both
+        bounce = found and elastic
+        restitution = 0.0
+        if bounce:
+            restitution = c.material[ci][0]
+        v_in = v0 if bounce else vc
+        m = c.material[ci]  # (resolve.apply_law for a collider that is not a body)
+        v_rel, _dvn = respond(v_in - vs, n, restitution, m[1], m[2], wet_law)
+        v_new = vs + v_rel
+        if bounce:
             dv = v_new - v0
             x1_elastic = xc + dt * dv
             left -= longest(x1_elastic - xc)
@@ -122,9 +144,7 @@ def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1
                 break
             if elastic_passes > 1:
                 break  # (another elastic pass follows: the general scheme's)
-        elif found or alt:
-            # a contact pass (e = 0): the path to the contact, then the new velocity after it
-            v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, vc, n, vs, 0.0, wet_law)
+        else:
             x1_contact = x0 + t * (xc - x0) + (1.0 - t) * (vec3(ZERO) + dt * (v_new - vs))
             left -= longest(x1_contact - xc)
             xc, vc = x1_contact, v_new
@@ -132,15 +152,6 @@ def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1
                 done = True
                 apart, level = n, n.dot(met)
                 clearance = ti.min(n.dot(xc) - level, left)
-            break
-        else:
-            if gap1 <= left:
-                # nothing met, and the plane is the nearest collider
-                done = True
-                clearance = gap1
-                if gap1 >= 0.0:
-                    apart = n
-                level = apart.dot(xc) - gap1
             break
     if done:
         x1, v1 = xc, vc
