@@ -268,9 +268,11 @@ def taichi_case(setup, *, label="taichi impulse", layout="falling", precision=No
     scene = build_scene(tc, positions, colliders, solver_factory(tc) if solver_factory else None)
     rss1 = rss_bytes()
     # per slot: x, v (3 floats each), mass, radius, clearance (1 float each), the separating
-    # plane (5 floats: solvers/impulse.py), flags (i32)
+    # plane (SEPARATION_SIZE floats: solvers/impulse.py), flags (i32)
+    from tai_coll.scene.particles import SEPARATION_SIZE
+
     store = scene._particles
-    state_bytes = store.capacity * (14 * np.dtype(info.float_dtype).itemsize + 4)
+    state_bytes = store.capacity * ((9 + SEPARATION_SIZE) * np.dtype(info.float_dtype).itemsize + 4)
 
     def step():
         scene.step(1)
