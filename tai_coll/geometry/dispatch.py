@@ -55,6 +55,14 @@ def local_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, p: vec3
 
 
 @ti.func
+def world_plane(center: vec3, rotation: mat3, x: vec3):
+    """A plane collider's phi and normal at world point x, without a frame rotation: the
+    normal is the rotation's second column (the plane's local y), phi the height along it."""
+    n = vec3(rotation[0, 1], rotation[1, 1], rotation[2, 1])
+    return (x - center).dot(n), n
+
+
+@ti.func
 def world_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params: vec4, center: vec3, rotation: mat3,
               x: vec3, reach=1e30):
     """phi and the world-space normal at world point x for a collider posed at (center, R).
@@ -65,8 +73,7 @@ def world_sdf(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, params:
     phi = 0.0
     n = vec3(0.0, 1.0, 0.0)
     if kind == kinds.PLANE:
-        n = vec3(rotation[0, 1], rotation[1, 1], rotation[2, 1])
-        phi = (x - center).dot(n)
+        phi, n = world_plane(center, rotation, x)
     elif kind == kinds.SPHERE:
         phi, n = analytic.sphere_sdf(x - center, params[0])
     else:
@@ -111,8 +118,9 @@ def world_crossing(g: ti.template(), groups: ti.template(), ci, kind: ti.i32, pa
     t = 1.0
     n = vec3(0.0, 1.0, 0.0)
     if kind == kinds.PLANE:
-        n = vec3(rotation[0, 1], rotation[1, 1], rotation[2, 1])
-        hit, t = analytic.plane_heights_crossing((x0 - center).dot(n), (x1 - center).dot(n), r)
+        h0, n = world_plane(center, rotation, x0)
+        h1, _n1 = world_plane(center, rotation, x1)
+        hit, t = analytic.plane_heights_crossing(h0, h1, r)
     else:
         Rt = rotation.transpose()
         hit, t, n_local = local_crossing(g, groups, ci, kind, params, Rt @ (x0 - center), Rt @ (x1 - center), r)

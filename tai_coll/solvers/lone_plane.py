@@ -8,7 +8,7 @@ it knows from a query that the nearest collider is plane `ci` and that every oth
 is farther from the candidate than the candidate's step (the kept `others`): the general
 sweep could then meet no collider but that plane. The path makes the general scheme's
 decisions for it, with the same formulas (the plane's distance and crossing as
-geometry.dispatch gives them, detection.approaching's test, the law of response.laws) on the
+geometry.dispatch gives them, detection.approaching's test, resolve.apply_law) on the
 same values, and commits only where the general scheme ends within two sweeps: nothing met; an
 elastic pass that leaves the candidate in front of the plane; an elastic pass, then a second
 sweep that meets nothing or one contact pass; a contact pass. Anything else (more elastic
@@ -24,21 +24,12 @@ results agree with the general scheme's to round-off (tests/test_physics.py).
 import taichi as ti
 
 from ..geometry.analytic import plane_heights_crossing
-from ..response.laws import respond
+from ..geometry.dispatch import world_plane
 from ..types import vec3
-from .detection import APPROACH_EPS, APPROACH_FLOOR
+from .detection import APPROACH_EPS, APPROACH_FLOOR, approaching
+from .resolve import apply_law
 
 ZERO = (0.0, 0.0, 0.0)
-
-
-@ti.func
-def plane_normal(c: ti.template(), ci, end_pose: bool) -> vec3:
-    """The plane's unit normal at its end pose (or start pose): its rotation's second column,
-    as geometry.dispatch.world_sdf takes it."""
-    n = vec3(c.rotation0[ci][0, 1], c.rotation0[ci][1, 1], c.rotation0[ci][2, 1])
-    if end_pose:
-        n = vec3(c.rotation1[ci][0, 1], c.rotation1[ci][1, 1], c.rotation1[ci][2, 1])
-    return n
 
 
 @ti.func
@@ -55,8 +46,8 @@ def approaches(v: vec3, n: vec3) -> bool:
     out = False
     if vn < -APPROACH_FLOOR:
         out = vn < -APPROACH_EPS * longest(v) - APPROACH_FLOOR
-        if not out:  # (detection.approaching's test, the surface's speed being zero)
-            out = vn < -APPROACH_EPS * (v.norm() + 0.0) - APPROACH_FLOOR
+        if not out:
+            out = approaching(v, vec3(ZERO), n)
     return out
 
 
@@ -65,18 +56,22 @@ def sweep(c: ti.template(), ci, x0: vec3, x1: vec3, r, slop):
     """detection.detect's tests for plane ci alone, path x0 -> x1: (gap of x1, whether the path
     meets the plane, the normal there, when: a fraction of the substep). A clear end (gap >= 0)
     meets it only by crossing it, which a sphere whose centre ends in front of it cannot."""
-    n1 = plane_normal(c, ci, True)
-    gap1 = (x1 - c.center1[ci]).dot(n1) - r
+    # (detection.detect's collider_sdf and world_crossing, for a plane: x1 against the end
+    # pose, x0 against the start pose, the crossing against the end pose)
+    phi1, n1 = world_plane(c.center1[ci], c.rotation1[ci], x1)
+    gap1 = phi1 - r
     candidate = False
     n = n1
     t = 0.0
     if gap1 < 0.0:
-        n = plane_normal(c, ci, False)
-        gap0 = (x0 - c.center0[ci]).dot(n) - r
+        phi0, n0 = world_plane(c.center0[ci], c.rotation0[ci], x0)
+        gap0 = phi0 - r
+        n = n0
         candidate = gap0 >= -slop and gap1 < ti.min(gap0, 0.0)
         if candidate and gap0 >= 0.0:
             n = n1
-            candidate, t = plane_heights_crossing((x0 - c.center1[ci]).dot(n1), (x1 - c.center1[ci]).dot(n1), r)
+            h0, _n = world_plane(c.center1[ci], c.rotation1[ci], x0)
+            candidate, t = plane_heights_crossing(h0, phi1, r)
     return gap1, candidate, n, t
 
 
@@ -128,9 +123,7 @@ def lone_plane_substep(c: ti.template(), ci, i, x0: vec3, v0: vec3, x1: vec3, v1
         if bounce:
             restitution = c.material[ci][0]
         v_in = v0 if bounce else vc
-        m = c.material[ci]  # (resolve.apply_law for a collider that is not a body)
-        v_rel, _dvn = respond(v_in - vs, n, restitution, m[1], m[2], wet_law)
-        v_new = vs + v_rel
+        v_new, _changed = apply_law(c, False, ci, i, 0.0, x0, r, v_in, n, vs, restitution, wet_law)
         if bounce:
             dv = v_new - v0
             x1_elastic = xc + dt * dv
