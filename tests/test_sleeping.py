@@ -208,3 +208,18 @@ def test_a_sleeping_row_falls_asleep_again_after_a_slow_push():
     assert not scene.sleeping().all()
     scene.step(600)
     assert scene.sleeping().all() and np.abs(scene.velocities()).max() == 0.0
+
+
+def test_a_collider_added_where_particles_sleep_wakes_them():
+    # A wall added through a sleeping particle pushes it out: it wakes, instead of sleeping on
+    # inside the wall (a sleeping particle keeps its place, and the colliders' passes leave it
+    # alone: they hold still while particles sleep).
+    scene = sleeping_row(1)
+    x = scene.positions()[0]
+    wall = x[0] - 0.5 * R
+    scene.add_collider(tc.Plane(point=(wall, 0.0, 0.0), normal=(-1.0, 0.0, 0.0)))
+    scene.step(1)
+    assert not scene.sleeping().any()
+    scene.step(20)
+    assert scene.positions()[0, 0] <= wall - 0.99 * R
+    assert abs(scene.positions()[0, 1] - R) < 1e-3 * R  # still on the floor

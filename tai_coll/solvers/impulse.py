@@ -218,7 +218,7 @@ def impulse_resolve_candidates(particles: ParticleArgs, colliders: ColliderArgs,
     chosen scheme, or with contact passes only (e = 0) when contact_only; then either store
     them as the new state, or write them back as candidates for the next phase. A particle
     whose kept clearance (see impulse_substep) exceeds the way from x to its candidate
-    cannot touch a collider: it is left as it is, without a query."""
+    cannot touch a collider: it is left as it is, without a query; so is a sleeping one."""
     for i in range(particles.count):
         resolve_candidate(particles, colliders, groups, kinematic, i, clearances, reuse_clearance, candidate_x,
                           candidate_v, dt, scheme, wet_law, max_iterations, elastic_iterations, last_resort,
@@ -290,8 +290,11 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
         clearance = -1.0
         if reuse_clearance:
             clearance = clearances[i]
-        if clearance > way:
-            clearance -= way  # out of every collider's reach: nothing to resolve
+        if clearance > way or p.rest[i] < 0.0:
+            # out of every collider's reach, or asleep (its candidate is where it rests: the
+            # pair passes move no sleeping particle, and colliders hold still while particles
+            # sleep, docs/physics.md 5.3.1): nothing to resolve
+            clearance -= way
         else:
             if ti.static(contact_only):
                 r = p.radius[i]

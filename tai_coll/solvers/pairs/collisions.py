@@ -101,6 +101,7 @@ class ParticleCollisions:
         self._allowance_left = 0.0  # an upper bound of every particle's overlap allowance (m)
         self._allowance_ceiling = 0.0  # DEM pairs: the most allowance any particle may have (m)
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
+        self._table_seen = None  # the collider table's version at the last substep (see _may_sleep)
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._push_cap = None  # placement.PushCap: its work while allowances are left
 
@@ -320,11 +321,14 @@ class ParticleCollisions:
         sleeping particle, immovable to the passes, would take momentum out of every slow
         exchange), and no collider is kinematic (its motion may take away a sleeping particle's
         support without touching it); otherwise every particle that may have slept is woken.
-        Sets self._sleep."""
+        So is every one when a collider was added since the last substep (the table's version:
+        still tables change only so), which may hold or push what sleeps. Sets self._sleep."""
         sleep = self.settings.sleep_time is not None and any(world.gravity) and not world.colliders.has_kinematic
-        if not sleep and self._sleep:
+        added = self._table_seen is not None and world.colliders.version != self._table_seen
+        if self._sleep and (added or not sleep):
             world.particles.wake_all()
         self._sleep = sleep
+        self._table_seen = world.colliders.version
         return sleep
 
     def _predict_and_list(self, world, dt: float, margin: tuple, skin: float, sleep: bool):

@@ -164,14 +164,17 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
         allowance_i = particles.allowance[i]
     for k in range(lists.neighbour_count[i]):
         j = lists.neighbours[i, k]
+        asleep_j = 0
+        if ti.static(sleep):
+            asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
+            if (asleep_i & asleep_j) != 0:
+                continue  # two sleeping particles: nothing to resolve, neither wakes the other
         xj = x1[j]
         reach = ri + particles.radius[j]
         touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
         d = xi - xj
         d2 = d.norm_sqr()
-        asleep_j = 0
         if ti.static(sleep):
-            asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
             if ti.static(mode != PROJECTION):
                 asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
                                                d, d2, reach, wake_speed)

@@ -24,10 +24,10 @@ A sleeping particle wakes
   rest (rest time above zero) faster than HIT_FACTOR * wake_speed (a hit it hands on):
   checked in every velocity pass with that pass's velocities, so that an impact goes on
   through the sleeping particles it reaches within the substep;
-- when a collider changes it (the collider pass gives it a velocity);
-- when the host writes the particle state (set_positions, set_velocities, ...) or gravity
-  changes; and particles do not sleep while the scene has kinematic colliders (their motion
-  may take a support away without touching the particle).
+- when the host writes the particle state (set_positions, set_velocities, ...), gravity
+  changes or a collider is added (colliders hold still while particles sleep: their passes
+  leave a sleeping particle alone); and particles do not sleep while the scene has
+  kinematic colliders (their motion may take a support away without touching the particle).
 Slower, a particle at rest wakes nothing: the passes shift a particle wedged among sleeping
 ones by a fraction of a millimetre now and then, at tens of mm/s, which would wake them all
 again. So a slow push handed on through particles at rest meets a sleeping one as a wall, and
@@ -118,10 +118,9 @@ def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity
                 sleep_time: float, sleep_drift: float):
     """At the end of a substep (the new state stored; x_start, v_start: x(t) and v(t), the
     latter changed by the elastic pass only): each awake particle's rest time and anchor, and
-    those that have rested for sleep_time put to sleep; a sleeping one that a collider gave a
-    velocity woken. A particle that was resting before the substep and still is keeps a
-    velocity no faster than its displacement over the substep: its stored velocity describes
-    its motion (see the module's notes)."""
+    those that have rested for sleep_time put to sleep. A particle that was resting before
+    the substep and still is keeps a velocity no faster than its displacement over the
+    substep: its stored velocity describes its motion (see the module's notes)."""
     for i in range(particles.count):
         if particles.flags[i] == ACTIVE:
             vi = particles.v[i]
