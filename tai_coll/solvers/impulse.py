@@ -176,7 +176,7 @@ def impulse_substep(particles: ParticleArgs, colliders: ColliderArgs, groups: ti
                                         colliders, plane, i, x0, v0, x1, v1, r, slop_fraction * r, dt,
                                         elastic_iterations, others, wet_law)
                         if not done:
-                            x1, v1, clearance, apart, level, others, plane = resolve_particle(
+                            x1, v1, clearance, apart, level, others, plane, _push = resolve_particle(
                                 particles, colliders, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law,
                                 max_iterations, elastic_iterations, last_resort, max_push_speed, slop_fraction,
                                 rest_speed, clear_start)
@@ -211,19 +211,24 @@ def impulse_resolve_candidates(particles: ParticleArgs, colliders: ColliderArgs,
                                elastic_iterations: ti.i32, last_resort: last_resort6, max_push_speed: float,
                                slop_fraction: float, rest_speed: float, use_domain: ti.template(), domain_lo: vec3,
                                domain_hi: vec3,
-                               contact_only: ti.template(), store_state: ti.template(),
+                               contact_only: ti.template(), store_state: ti.template(), allow: ti.template(),
+                               # out: the largest push granted as allowance (allow)
+                               pushed: ARRAY,
                                # in-out
                                candidate_x: ARRAY, candidate_v: ARRAY):
     """Resolve candidates that another phase (particle-particle contacts) produced: with the
     chosen scheme, or with contact passes only (e = 0) when contact_only; then either store
     them as the new state, or write them back as candidates for the next phase. A particle
     whose kept clearance (see impulse_substep) exceeds the way from x to its candidate
-    cannot touch a collider: it is left as it is, without a query; so is a sleeping one."""
+    cannot touch a collider: it is left as it is, without a query; so is a sleeping one.
+    Candidates written back (not store_state) whose start lay inside a collider have the last
+    resort's push moved into their start (x), which the later phases integrate from, and with
+    `allow` it is also overlap allowance with their neighbours (pushed[0]: the largest)."""
     for i in range(particles.count):
         resolve_candidate(particles, colliders, groups, kinematic, i, clearances, reuse_clearance, candidate_x,
                           candidate_v, dt, scheme, wet_law, max_iterations, elastic_iterations, last_resort,
                           max_push_speed, slop_fraction, rest_speed, use_domain, domain_lo, domain_hi, contact_only,
-                          store_state)
+                          store_state, allow, pushed)
 
 
 @ti.kernel
@@ -280,7 +285,8 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                       candidate_v: ti.template(), dt,
                       scheme: ti.template(), wet_law: ti.template(), max_iterations, elastic_iterations, last_resort,
                       max_push_speed, slop_fraction, rest_speed, use_domain: ti.template(), domain_lo: vec3,
-                      domain_hi: vec3, contact_only: ti.template(), store_state: ti.template()):
+                      domain_hi: vec3, contact_only: ti.template(), store_state: ti.template(),
+                      allow: ti.template(), pushed: ti.template()):
     if p.flags[i] == ACTIVE:
         x0 = p.x[i]
         v0 = p.v[i]
@@ -314,9 +320,21 @@ def resolve_candidate(p: ti.template(), c: ti.template(), groups: ti.template(),
                         v1 -= (into / out.norm_sqr()) * out
                 x1 = x_kept
             else:
-                x1, v1, clearance, apart, level, others, _nearest = resolve_particle(
+                x1, v1, clearance, apart, level, others, _nearest, push = resolve_particle(
                     p, c, groups, kinematic, i, x0, v0, x1, v1, dt, scheme, wet_law, max_iterations,
                     elastic_iterations, last_resort, max_push_speed, slop_fraction, rest_speed, clearance >= 0.0)
+                if ti.static(not store_state):
+                    if any(push != 0.0):
+                        # The last resort's push moves the position only (docs/physics.md 3.4):
+                        # it moves the start of the substep, which the later phases integrate
+                        # from (the pairs' contact passes, the colliders' contact passes), so
+                        # that they keep it; with `allow` the overlap it pushes the particle
+                        # into is placed overlap, removed by positions (docs/physics.md 5.2.1)
+                        p.x[i] = x0 + push
+                        if ti.static(allow):
+                            length = push.norm()
+                            p.allowance[i] = p.allowance[i] + length
+                            ti.atomic_max(pushed[0], length)
         if ti.static(store_state):
             store(p, i, x0, v0, x1, v1, use_domain, domain_lo, domain_hi)
             clearances[i] = clearance
@@ -399,10 +417,12 @@ class ImpulseSolver(Solver):
                     use_domain=use_domain, domain_lo=host_vector(lo), domain_hi=host_vector(hi))
 
     def resolve_candidates(self, world, dt: float, candidate_x, candidate_v, *, contact_only=False,
-                           store_state=True):
+                           store_state=True, pushed=None):
         """Resolve candidate positions and velocities (arrays) from another phase against the
         colliders: with the scheme, or contact passes only; store the result as the
-        particles' new state, or write it back to the candidate arrays."""
+        particles' new state, or write it back to the candidate arrays. pushed: None, or a
+        one-element array (zeroed) into which the largest last-resort push goes, each push
+        granted as overlap allowance (the pairs' placed overlap, docs/physics.md 5.2.1)."""
         store, table = world.particles, world.colliders
         reuse = store.clearances_hold(table)
         if store_state:
@@ -411,6 +431,7 @@ class ImpulseSolver(Solver):
                                    kinematic=table.has_kinematic, clearances=store.clearance,
                                    reuse_clearance=int(reuse), dt=dt,
                                    **self._law(world, dt), contact_only=contact_only, store_state=store_state,
+                                   allow=pushed is not None, pushed=store.clearance if pushed is None else pushed,
                                    candidate_x=candidate_x, candidate_v=candidate_v)
         if store_state:
             store.clearances_written(table)

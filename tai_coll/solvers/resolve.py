@@ -275,7 +275,8 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     """Query and respond: resolve particle i's candidate (x1, v1) from its state (x0, v0) at
     time t against the colliders with the chosen scheme. Returns (x1, v1, clearance, apart,
     level, others, the collider `apart` belongs to): resolve_passes' (exact_time: clearance -1,
-    unknown, and collider -1).
+    unknown, and collider -1); and the last resort's push (zero unless x0 was inside a
+    collider: repel_start_penetrations).
     clear_start: x0 is known to be clear of every collider (a kept clearance >= 0 at x0); with
     still colliders (not `kinematic`) the search for start penetrations is then skipped, as it
     could find none."""
@@ -309,4 +310,4 @@ def resolve_particle(p: ti.template(), c: ti.template(), groups: ti.template(), 
     else:
         x1, v1 = resolve_exact_time(p, c, groups, kinematic, i, inv_mass, x0 + push, v1, r, slop, dt,
                                     max_iterations, rest_speed, wet_law)
-    return x1, v1, clearance, apart, level, others, near_ci
+    return x1, v1, clearance, apart, level, others, near_ci, push

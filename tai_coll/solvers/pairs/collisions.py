@@ -102,6 +102,7 @@ class ParticleCollisions:
         self._allowance_ceiling = 0.0  # DEM pairs: the most allowance any particle may have (m)
         self._sleep = False  # whether particles may sleep this substep (the passes then take sleep=True)
         self._table_seen = None  # the collider table's version at the last substep (see _may_sleep)
+        self._pushing = True  # whether the last resort may push particles out of colliders (see impulse_substep)
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._push_cap = None  # placement.PushCap: its work while allowances are left
 
@@ -239,8 +240,18 @@ class ParticleCollisions:
         if not self._velocity_pass(particles, dt, law, elastic=True, wake_speed=wake_speeds[0]) and \
                 settings.method == "jacobi":
             self._counts.reverse()  # (it counted the contacts all the same)
-        #    ... and the colliders' own scheme (its elastic pass included) on the candidates
-        solver.resolve_candidates(world, dt, self.x1, self.v1, store_state=False)
+        #    ... and the colliders' own scheme on the candidates; its pushes out of colliders become
+        #    overlap allowance (watched after placements and added colliders, until none: a read)
+        pushing = self._pushing and math.isfinite(settings.max_push_speed)
+        if pushing:
+            self._largest.fill(0)
+        solver.resolve_candidates(world, dt, self.x1, self.v1, store_state=False,
+                                  pushed=self._largest if pushing else None)
+        if pushing:
+            pushed = float(self._largest[0])
+            self._pushing = pushed > 0.0
+            self._allowance_left += pushed  # (a particle's allowance grew by its push at most)
+            placed = self.placing
         # 4. contact passes on the candidate velocities, e = 0, alternating with the colliders'
         #    contact passes. A pass that finds no approaching pair ends the loop (the next would
         #    be the same); likewise a projection pass that finds no overlap.
@@ -322,13 +333,16 @@ class ParticleCollisions:
         exchange), and no collider is kinematic (its motion may take away a sleeping particle's
         support without touching it); otherwise every particle that may have slept is woken.
         So is every one when a collider was added since the last substep (the table's version:
-        still tables change only so), which may hold or push what sleeps. Sets self._sleep."""
-        sleep = self.settings.sleep_time is not None and any(world.gravity) and not world.colliders.has_kinematic
-        added = self._table_seen is not None and world.colliders.version != self._table_seen
+        still tables change only so), which may hold or push what sleeps (or hold particles:
+        self._pushing). Sets self._sleep."""
+        table = world.colliders
+        sleep = self.settings.sleep_time is not None and any(world.gravity) and not table.has_kinematic
+        added = self._table_seen is not None and table.version != self._table_seen and not table.has_kinematic
         if self._sleep and (added or not sleep):
             world.particles.wake_all()
         self._sleep = sleep
-        self._table_seen = world.colliders.version
+        self._table_seen = table.version
+        self._pushing = self._pushing or added
         return sleep
 
     def _predict_and_list(self, world, dt: float, margin: tuple, skin: float, sleep: bool):
@@ -437,6 +451,7 @@ class ParticleCollisions:
             self._allowance_left = max(self._allowance_left, largest)
             self._allowance_ceiling = max(self._allowance_ceiling, largest)
             particles.placed_from = None
+            self._pushing = True
         return self.placing
 
     @property
