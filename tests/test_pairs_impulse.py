@@ -430,6 +430,36 @@ def test_one_projection_pass_separates_every_isolated_pair(method, relaxation, m
     assert np.allclose(after, before, atol=1e-5 * r)
 
 
+def settle(x, v, mass, r, law, **options):
+    """gauss_seidel.settle_pass over particles at x (radius r) with velocities v, masses mass and
+    the pair law `law` (restitution, friction); options: settle_pass's. Returns (x1, v1 after,
+    whether the pass changed anything)."""
+    from tai_coll.types import ParticleArgs
+
+    n = len(x)
+    grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
+    x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
+    particles = ParticleArgs(count=n, x=on_device(x), v=on_device(v), mass=on_device(mass),
+                             radius=on_device(np.full(n, r)), flags=on_device(np.zeros(n, int)),
+                             allowance=on_device(np.zeros(n)), rest=on_device(np.zeros(n)),
+                             anchor=on_device(x), stats=on_device(np.zeros(4, int)))
+    gauss_seidel.settle_pass(particles, grid.args, grid.lists, law, 1e-3, changed, x1, v1, **options)
+    return x1.to_numpy(), v1.to_numpy().astype(float), changed[0]
+
+
+def separate_pairs(rng, pairs, r, distance, closing):
+    """`pairs` isolated pairs far apart along random axes, their centres `distance` apart, each
+    particle moving towards the other by `closing` (negative: apart) plus a shared tangential
+    velocity. Returns (x, v, axis): the first particles, then their partners."""
+    centres = rng.uniform(-20.0, 20.0, (pairs, 3))
+    axis = rng.normal(size=(pairs, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    x = np.concatenate([centres + 0.5 * distance[:, None] * axis, centres - 0.5 * distance[:, None] * axis])
+    towards = -closing[:, None] * axis
+    tangential = rng.normal(scale=0.1, size=(pairs, 3))
+    return x, np.concatenate([towards + tangential, -towards + tangential]), axis
+
+
 def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     # Gauss-Seidel's last pass: the law (here e = 0, no friction) on pairs touching at the
     # final positions (up to SETTLE_TOUCH beyond r_i + r_j, what a projection leaves):
@@ -437,33 +467,19 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     # separating pairs and pairs just out of touch keep their velocities; nothing moves.
     from tai_coll import runtime
     from tai_coll.response.laws import WET_LINEAR
-    from tai_coll.types import ParticleArgs
 
     rng = np.random.default_rng(4)
     pairs, r = 300, 0.01
-    centres = rng.uniform(-20.0, 20.0, (pairs, 3))
-    axis = rng.normal(size=(pairs, 3))
-    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
     kind = np.arange(pairs) % 3  # 0: touching, approaching; 1: touching, separating; 2: just apart
     distance = np.where(kind == 2, 2 * r * 1.01, 2 * r * (1 + 0.5 * gauss_seidel.SETTLE_TOUCH))
-    x = np.concatenate([centres + 0.5 * distance[:, None] * axis, centres - 0.5 * distance[:, None] * axis])
-    closing = np.where(kind == 1, 1.0, -1.0)[:, None] * rng.uniform(0.01, 0.5, (pairs, 1)) * axis
-    tangential = rng.normal(scale=0.1, size=(pairs, 3))
-    v = np.concatenate([closing + tangential, -closing + tangential])  # a's velocity minus b's: 2 closing
+    closing = np.where(kind == 1, -1.0, 1.0) * rng.uniform(0.01, 0.5, pairs)
+    x, v, axis = separate_pairs(rng, pairs, r, distance, closing)
     mass = rng.uniform(1.0, 3.0, 2 * pairs)
-    n = 2 * pairs
-    grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
     dtype = runtime.float_dtype()
-    x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
-    particles = ParticleArgs(count=n, x=on_device(x), v=on_device(v), mass=on_device(mass),
-                             radius=on_device(np.full(n, r)), flags=on_device(np.zeros(n, int)),
-                             allowance=on_device(np.zeros(n)), rest=on_device(np.zeros(n)),
-                             anchor=on_device(x), stats=on_device(np.zeros(4, int)))
     law = dict(restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=WET_LINEAR)
-    gauss_seidel.settle_pass(particles, grid.args, grid.lists, law, 1e-3, changed, x1, v1)
-    after = v1.to_numpy().astype(float)
-    assert np.array_equal(x1.to_numpy(), x.astype(dtype))  # nothing moved
-    assert changed[0] == 1
+    x1, after, changed = settle(x, v, mass, r, law)
+    assert np.array_equal(x1, x.astype(dtype))  # nothing moved
+    assert changed == 1
     eps = 1e-5 if dtype == np.float32 else 1e-12
     momentum = mass[:pairs, None] * v[:pairs] + mass[pairs:, None] * v[pairs:]
     assert np.allclose(mass[:pairs, None] * after[:pairs] + mass[pairs:, None] * after[pairs:], momentum, atol=eps)
@@ -473,6 +489,27 @@ def test_settle_pass_stops_touching_pairs_approaching_and_moves_nothing():
     assert np.allclose(after[np.concatenate([~stopped, ~stopped])], v[np.concatenate([~stopped, ~stopped])], atol=eps)
     tangent_rel = (after[:pairs] - after[pairs:]) - normal_rel[:, None] * axis
     assert np.allclose(tangent_rel[stopped], 0.0, atol=eps)  # (both particles share the tangential velocity)
+
+
+def test_settle_pass_bounces_only_approaches_faster_than_the_rest_speed():
+    # docs/physics.md 5, step 5: a touching pair approaching slower than the rest speed is a
+    # resting contact and stops (e = 0); faster, it leaves with e times its approach.
+    from tai_coll import runtime
+    from tai_coll.response.laws import WET_LINEAR
+
+    rng = np.random.default_rng(5)
+    pairs, r, e, rest_speed = 200, 0.01, 0.5, 0.1
+    approach = rng.uniform(0.01, 0.3, pairs)  # the pair's relative approach speed
+    x, v, axis = separate_pairs(rng, pairs, r, np.full(pairs, 2 * r), 0.5 * approach)
+    mass = np.ones(2 * pairs)
+    law = dict(restitution=e, friction=0.0, wet_friction=0.0, wet_law=WET_LINEAR)
+    _x1, after, _changed = settle(x, v, mass, r, law, rest_speed=rest_speed)
+    eps = 1e-5 if runtime.float_dtype() == np.float32 else 1e-12
+    leaving = np.sum((after[:pairs] - after[pairs:]) * axis, axis=1)
+    slow = approach < rest_speed
+    assert 0 < slow.sum() < pairs
+    assert np.allclose(leaving[slow], 0.0, atol=eps)
+    assert np.allclose(leaving[~slow], e * approach[~slow], rtol=1e-4, atol=eps)
 
 
 # ---------------------------------------------------------------- configuration

@@ -277,8 +277,9 @@ class ParticleCollisions:
             # a pile are thrown back and forth by the projection's velocity, towards a different
             # neighbour each substep (a jitter of period two substeps)
             if self._pairs:
-                gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt,
-                                         self.changed, self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels)
+                gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt, self.changed,
+                                         self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels,
+                                         rest_speed=2.0 * dt * math.hypot(*world.gravity))
         # 6. colliders last, and the new state. With rigid bodies, their substep ends first:
         #    the particles are then kept out of them at the poses they were committed to, not
         #    the predicted ones (docs/physics.md 7.2)
@@ -332,9 +333,8 @@ class ParticleCollisions:
         sleeping particle, immovable to the passes, would take momentum out of every slow
         exchange), and no collider is kinematic (its motion may take away a sleeping particle's
         support without touching it); otherwise every particle that may have slept is woken.
-        So is every one when a collider was added since the last substep (the table's version:
-        still tables change only so), which may hold or push what sleeps (or hold particles:
-        self._pushing). Sets self._sleep."""
+        So is every one when a collider was added (the still table's version changed), which may
+        hold or push what sleeps (and sets self._pushing). Sets self._sleep."""
         table = world.colliders
         sleep = self.settings.sleep_time is not None and any(world.gravity) and not table.has_kinematic
         added = self._table_seen is not None and table.version != self._table_seen and not table.has_kinematic

@@ -141,7 +141,8 @@ SETTLE_TOUCH = 1e-4
 @ti.func
 def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(), i,
                     lists: ti.template(), particles: ti.template(), restitution, friction, wet_friction,
-                    wet_law: ti.template(), relaxation, dt, push_distance, wake_speed, levels: ti.template(),
+                    wet_law: ti.template(), relaxation, dt, push_distance, wake_speed, rest_speed,
+                    levels: ti.template(),
                     v_test: ti.template(), x1: ti.template(), v1: ti.template()) -> ti.i32:
     """_pass's work on particle i: its pairs of the forward lists, one after the other, each
     seeing the changes of those before it (the arguments as _pass's). Returns 1 if any pair had
@@ -217,7 +218,11 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
                     v1[j] = v1[j] - (wj / dt) * push
             else:
                 v_rel = vi - v_test[j]
-                v_new, dvn = respond(v_rel, nrm, restitution, friction, wet_friction, wet_law)
+                e_pair = restitution
+                if ti.static(mode == SETTLE):
+                    if v_rel.dot(nrm) > -rest_speed:
+                        e_pair = 0.0  # (a resting contact's approach: see _pass)
+                v_new, dvn = respond(v_rel, nrm, e_pair, friction, wet_friction, wet_law)
                 if dvn > 0.0:
                     found = 1
                     change = (v_new - v_rel) * relaxation
@@ -253,7 +258,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
           slabs: ti.template(), unit_bits: ti.template(), claims: ClaimArgs, grid: GridArgs,
           lists: ListArgs, particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
-          dt: float, push_distance: float, wake_speed: float, levels: ARRAY,
+          dt: float, push_distance: float, wake_speed: float, rest_speed: float, levels: ARRAY,
           # outputs
           changed: ARRAY,
           # in-out
@@ -273,7 +278,9 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
         particle any speed. v_test unused.
     SETTLE (v_test is v1): the law (with restitution) on the velocities of the pairs touching
         at the final positions (within SETTLE_TOUCH), positions unchanged: no contact left at
-        the end of the substep carries approaching velocity into the next.
+        the end of the substep carries approaching velocity into the next. A pair approaching
+        slower than rest_speed (twice gravity's increment a substep) is a resting contact, not
+        a bounce: it gets e = 0 (docs/physics.md 5.3).
     sleep: some particles may be asleep (sleeping.py): a sleeping particle takes no part of a
         pair's change (sleeping.shares), two sleeping ones are skipped; the velocity passes
         (ELASTIC, CONTACT, SETTLE) wake a sleeping particle that a moving or just-woken one
@@ -313,7 +320,7 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     for slot in range(begin, end):
                         found |= _particle_pairs(mode, placed, sleep, shock, grid.entries[slot], lists, particles,
                                                  restitution, friction, wet_friction, wet_law, relaxation, dt,
-                                                 push_distance, wake_speed, levels, v_test, x1, v1)
+                                                 push_distance, wake_speed, rest_speed, levels, v_test, x1, v1)
                 if found != 0 and changed[0] == 0:
                     changed[0] = 1
                 u = groups  # (units: done)
@@ -329,18 +336,18 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
     wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep."""
     _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None, shock=False,
           **_layout(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
-          push_distance=0.0, wake_speed=wake_speed or 0.0, levels=changed, changed=changed, v_test=v_test, x1=x1,
-          v1=v1)
+          push_distance=0.0, wake_speed=wake_speed or 0.0, rest_speed=0.0, levels=changed, changed=changed,
+          v_test=v_test, x1=x1, v1=v1)
 
 
 def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, wake_speed: float | None = None,
-                levels=None):
+                levels=None, rest_speed: float = 0.0):
     """A velocity pass at the final positions, positions unchanged; levels: support levels
-    (shock.py) or None; see _pass."""
+    (shock.py) or None; rest_speed: m/s, slower approaches get e = 0; see _pass."""
     _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, shock=levels is not None, **_layout(),
           grid=grid, lists=lists, particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0,
-          wake_speed=wake_speed or 0.0, levels=changed if levels is None else levels, changed=changed, v_test=v1,
-          x1=x1, v1=v1)
+          wake_speed=wake_speed or 0.0, rest_speed=rest_speed, levels=changed if levels is None else levels,
+          changed=changed, v_test=v1, x1=x1, v1=v1)
 
 
 def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed: bool, push_distance: float,
@@ -350,5 +357,5 @@ def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed
     levels: support levels (shock.py) or None; see _pass."""
     _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, **_layout(), grid=grid,
           lists=lists, particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0,
-          relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0,
+          relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0, rest_speed=0.0,
           levels=changed if levels is None else levels, changed=changed, v_test=v1, x1=x1, v1=v1)
