@@ -41,6 +41,11 @@ class World:
             return False, np.zeros(3), np.zeros(3)
         return True, self.domain[0], self.domain[1]
 
+    def rest_speed(self, dt: float) -> float:
+        """Twice the speed gravity adds in a substep of dt (m/s): an approach slower than this is
+        a resting contact, not a bounce (docs/physics.md 3.5 and 5)."""
+        return 2.0 * float(np.linalg.norm(self.gravity)) * dt
+
 
 class Solver(abc.ABC):
     """A contact solver: how a Scene's particles are resolved against its colliders and, when

@@ -28,7 +28,6 @@ kinds compiled in; the solver launches them with every argument named (`_law`).
 """
 
 
-import numpy as np
 import taichi as ti
 
 from .. import validate
@@ -408,7 +407,7 @@ class ImpulseSolver(Solver):
 
     def _law(self, world, dt: float) -> dict:
         """The kernels' scheme, law and domain arguments, by name."""
-        rest_speed = self.rest_speed if self.rest_speed is not None else 2.0 * float(np.linalg.norm(world.gravity)) * dt
+        rest_speed = self.rest_speed if self.rest_speed is not None else world.rest_speed(dt)
         use_domain, lo, hi = world.domain_bounds()
         return dict(scheme=SCHEMES[self.scheme], wet_law=WET_LAWS[self.wet_law], max_iterations=self.max_iterations,
                     elastic_iterations=self.elastic_iterations,

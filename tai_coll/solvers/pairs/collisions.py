@@ -279,7 +279,7 @@ class ParticleCollisions:
             if self._pairs:
                 gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt, self.changed,
                                          self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels,
-                                         rest_speed=2.0 * dt * math.hypot(*world.gravity))
+                                         rest_speed=world.rest_speed(dt))
         # 6. colliders last, and the new state. With rigid bodies, their substep ends first:
         #    the particles are then kept out of them at the poses they were committed to, not
         #    the predicted ones (docs/physics.md 7.2)
