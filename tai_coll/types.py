@@ -114,8 +114,9 @@ ColliderArgs = ti.types.argpack(count=ti.i32, kind=ARRAY, params=ARRAY, material
 GridArgs = ti.types.argpack(n_buckets=ti.i32, bits=ti.types.vector(3, ti.i32), starts=ARRAY, entries=ARRAY,
                             sorted_xr=ARRAY)
 
-#: Neighbour lists: particle i's neighbours in row i of `neighbours`, `neighbour_count[i]` of them.
-ListArgs = ti.types.argpack(neighbours=TABLE, neighbour_count=ARRAY)
+#: Neighbour lists: particle i's `neighbour_count[i]` neighbours lie in `neighbours` from
+#: `first[i]` on (read them with neighbors.hash_grid.neighbour_of).
+ListArgs = ti.types.argpack(neighbours=ARRAY, first=ARRAY, neighbour_count=ARRAY)
 
 #: The pack a kernel gets for a feature it was compiled without (Taichi kernels have fixed
 #: signatures; the feature's arrays are then not passed at all).

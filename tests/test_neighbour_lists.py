@@ -44,14 +44,51 @@ def assert_lists_match_brute_force(grid, x, radius, margin, forward):
         if not forward:
             assert touching[i] == np.count_nonzero((d[i] < contact[i]) & (np.arange(n) != i)), i
     if forward:  # each pair listed once, by the particle sorted first
-        counts = grid.neighbour_count.to_numpy()[:n]
-        table = grid.neighbours.to_numpy()[:n]
+        own = grid.own_lists(n)
         slot_of = np.empty(n, int)
         slot_of[grid.entries.to_numpy()[:n]] = np.arange(n)
         for i in range(n):
-            assert np.all(slot_of[table[i, : counts[i]]] > slot_of[i]), i
-        assert counts.sum() == sum(len(row) for row in lists) // 2
+            assert np.all(slot_of[own[i]] > slot_of[i]), i
+        assert sum(len(row) for row in own) == sum(len(row) for row in lists) // 2
     assert grid.dropped() == 0
+
+
+@pytest.mark.parametrize("forward", [False, True])
+def test_packed_lists_follow_each_other_and_overfull_ones_stay_within_their_block(forward):
+    # The lists of PACKED_BLOCK particles in a row of the sorted entries lie one after the
+    # other in their block's places (the CPU's layout), also where a dense cluster gives 40
+    # particles in a row more neighbours than a list keeps: each keeps NEIGHBOUR_CAPACITY
+    # true neighbours, and no list overwrites the next one's.
+    from tai_coll.neighbors.hash_grid import NEIGHBOUR_CAPACITY, PACKED_BLOCK
+
+    rng = np.random.default_rng(5)
+    cloud = rng.uniform(-0.3, 0.3, (500, 3))
+    cluster = rng.uniform(-0.01, 0.01, (70, 3)) + 0.5  # 70 within reach of each other
+    x = np.concatenate([cloud, cluster])
+    radius = np.full(len(x), 0.02)
+    margin = 0.005
+    grid = grid_of(x, radius, margin, forward)
+    n = len(x)
+    assert grid.dropped() > 0
+    counts = grid.neighbour_count.to_numpy()[:n]
+    first = grid.first.to_numpy()[:n]
+    entries = grid.entries.to_numpy()[:n]
+    for slot in range(n):
+        i = entries[slot]
+        block = slot // PACKED_BLOCK
+        start = block * PACKED_BLOCK * NEIGHBOUR_CAPACITY
+        expected = start + sum(counts[entries[s]] for s in range(block * PACKED_BLOCK, slot))
+        assert first[i] == expected, slot
+        assert first[i] + counts[i] <= start + PACKED_BLOCK * NEIGHBOUR_CAPACITY
+    d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=2)
+    for i, row in enumerate(grid.own_lists(n)):
+        assert len(row) == counts[i] <= NEIGHBOUR_CAPACITY
+        assert len(set(row.tolist())) == len(row) and np.all(d[i, row] < 2 * 0.02 + margin) and i not in row, i
+    if not forward:  # each of the cluster keeps a full list of its 69 neighbours
+        assert np.all(counts[500:] == NEIGHBOUR_CAPACITY)
+    lists = grid.neighbour_lists(n)  # the cloud's own lists are whole
+    for i in range(500):
+        assert np.array_equal(lists[i], np.flatnonzero((d[i] < 2 * 0.02 + margin) & (np.arange(n) != i))), i
 
 
 @pytest.mark.parametrize("interleaved", [False, True])

@@ -321,10 +321,9 @@ def test_gauss_seidel_groups_of_a_colour_share_no_particle(spread, layout):
     grid = grid_of(x, radius, 0.005, forward=True)
     colour, unit = gauss_seidel_groups(grid, n, layout)
     assert np.all(colour >= 0)
-    counts = grid.neighbour_count.to_numpy()[:n]
-    table = grid.neighbours.to_numpy()[:n]
-    owner = np.repeat(np.arange(n), counts)
-    listed = np.concatenate([table[i, : counts[i]] for i in range(n)])
+    own = grid.own_lists(n)
+    owner = np.repeat(np.arange(n), [len(row) for row in own])
+    listed = np.concatenate(own)
     assert len(listed) > n // 2  # pairs enough to mean something
     # (particle touched, colour, unit) for the owners and for the neighbours they list
     touched = np.concatenate([np.arange(n), listed])

@@ -198,7 +198,7 @@ def query_span(home: ivec3, q, spans, bits: ivec3, starts: ti.template()):
 
 
 @ti.func
-def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, forward: ti.template(), found, touch,
+def _scan_row(begin, end, slot, base, xi: vec3, ri, margin, margin_radii, forward: ti.template(), found, touch,
               sorted_xr: ti.template(), entries: ti.template(), local: ti.template(), kept: ti.template(),
               neighbours: ti.template()):
     """Entries begin..end within reach (r_i + r_j + margin + margin_radii min(r_i, r_j)) of
@@ -215,7 +215,7 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, forward: 
     directly, to memory the compiler cannot tell apart from the grid's arrays, made it reload
     their addresses for every candidate: the kernel took 1.5 times as long on the CPU. On a
     GPU a local array that large lives in slow memory, so there each kept one goes straight
-    to `neighbours` (row i)."""
+    to `neighbours` (from `base` on)."""
     for k in range(begin, end):
         other = sorted_xr[k]
         d2 = (xi - other.xyz).norm_sqr()
@@ -229,52 +229,76 @@ def _scan_row(begin, end, slot, i, xi: vec3, ri, margin, margin_radii, forward: 
         if ti.static(local):
             kept[ti.min(found, NEIGHBOUR_CAPACITY)] = k
         elif keep and found < NEIGHBOUR_CAPACITY:
-            neighbours[i, found] = entries[k]
+            neighbours[base + found] = entries[k]
         found += ti.cast(keep, ti.i32)
         touch += ti.cast(keep & (d2 < contact * contact), ti.i32)
     return found, touch
 
 
+@ti.func
+def neighbour_of(lists: ti.template(), i, k):
+    """Particle i's k-th listed neighbour (k < lists.neighbour_count[i])."""
+    return lists.neighbours[lists.first[i] + k]
+
+
+#: Particles whose lists the CPU packs together (see _neighbours); GPUs give each particle its
+#: own NEIGHBOUR_CAPACITY places.
+PACKED_BLOCK = 16
+
+
 @ti.kernel
 def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, margin_radii: float,
-                forward: ti.template(), local: ti.template(),
+                forward: ti.template(), local: ti.template(), block: ti.template(),
                 # outputs
-                lists: ListArgs, touching: ARRAY, overflow: ARRAY, listed: ARRAY):
+                lists: ListArgs, touching: ARRAY, overflow: ARRAY, listed_any: ARRAY):
     """Each particle's neighbours within r_i + r_j + margin + margin_radii min(r_i, r_j)
     (forward: FORWARD_SORTED, only those after it in the sorted entries; FORWARD_RADIUS, only
     those larger than it or, of equal radius, after it), and how many of them touch it.
-    local: the CPU's way of collecting them (see _scan_row). listed[0]: whether any particle
-    listed a neighbour."""
-    listed[0] = 0
-    # One particle per iteration, visited in bucket order (its own data and the cells
-    # around it were just read by its bucket neighbours).
-    for slot in range(grid.starts[grid.n_buckets]):
-        i = grid.entries[slot]
-        found = 0
-        touch = 0
-        own = grid.sorted_xr[slot]
-        xi = own.xyz
-        home = cell_of(xi, inv_cell)
-        kept = ti.Vector([0] * (NEIGHBOUR_CAPACITY + 1 if ti.static(local) else 1), ti.i32)  # their slots
-        # forward lists: only the entries after this one (most rows end before it)
-        after = slot + 1 if ti.static(forward == FORWARD_SORTED) else 0
-        spans = query_spans(home, grid.bits)
-        for q in range(spans):
-            begin, end = query_span(home, q, spans, grid.bits, grid.starts)
-            found, touch = _scan_row(ti.max(begin, after), end, slot, i, xi, own.w, margin, margin_radii, forward,
-                                     found, touch, grid.sorted_xr, grid.entries, local, kept, lists.neighbours)
-        if found > NEIGHBOUR_CAPACITY:
-            ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
-            found = NEIGHBOUR_CAPACITY
-        if ti.static(local):
-            for q in range(found):
-                lists.neighbours[i, q] = grid.entries[kept[q]]
-        lists.neighbour_count[i] = found
-        touching[i] = touch
-        if found > 0 and listed[0] == 0:
-            listed[0] = 1  # (read first: one shared line, written once)
+    local: the CPU's way of collecting them (see _scan_row). listed_any[0]: whether any
+    particle listed a neighbour.
+    The lists of `block` particles in a row of the sorted entries share the block's
+    block x NEIGHBOUR_CAPACITY places, one after the other (first[i]: where particle i's
+    begin): the passes, which walk the particles in that order, then read their lists from
+    consecutive memory instead of a row of NEIGHBOUR_CAPACITY places each, mostly empty
+    (measured: docs/design-notes.md, "Packed neighbour lists"). Where they start depends on
+    the lists before them in the block alone, not on thread timing."""
+    listed_any[0] = 0
+    total = grid.starts[grid.n_buckets]
+    for b in range((total + block - 1) // block):
+        base = b * block * NEIGHBOUR_CAPACITY
+        # One particle per iteration, visited in bucket order (its own data and the cells
+        # around it were just read by its bucket neighbours).
+        for slot in range(b * block, ti.min(b * block + block, total)):
+            i = grid.entries[slot]
+            found = 0
+            touch = 0
+            own = grid.sorted_xr[slot]
+            xi = own.xyz
+            home = cell_of(xi, inv_cell)
+            kept = ti.Vector([0] * (NEIGHBOUR_CAPACITY + 1 if ti.static(local) else 1), ti.i32)  # their slots
+            # forward lists: only the entries after this one (most rows end before it)
+            after = slot + 1 if ti.static(forward == FORWARD_SORTED) else 0
+            spans = query_spans(home, grid.bits)
+            for q in range(spans):
+                begin, end = query_span(home, q, spans, grid.bits, grid.starts)
+                found, touch = _scan_row(ti.max(begin, after), end, slot, base, xi, own.w, margin, margin_radii,
+                                         forward, found, touch, grid.sorted_xr, grid.entries, local, kept,
+                                         lists.neighbours)
+            if found > NEIGHBOUR_CAPACITY:
+                ti.atomic_add(overflow[0], found - NEIGHBOUR_CAPACITY)
+                found = NEIGHBOUR_CAPACITY
+            if ti.static(local):
+                for q in range(found):
+                    lists.neighbours[base + q] = grid.entries[kept[q]]
+            lists.first[i] = base
+            lists.neighbour_count[i] = found
+            touching[i] = touch
+            base += found
+            if found > 0 and listed_any[0] == 0:
+                listed_any[0] = 1  # (read first: one shared line, written once)
     for i in range(n):
         if flags[i] != ACTIVE:
+            lists.first[i] = 0
             lists.neighbour_count[i] = 0
             touching[i] = 0
 
@@ -326,7 +350,8 @@ class HashGrid:
         if self.capacity > MAX_LISTED:  # (the scene refuses such counts first: Scene.enable_particle_collisions)
             raise ValueError(f"particles: neighbour lists hold at most {MAX_LISTED:,} particles; got {self.capacity:,}")
         self.list_capacity = self.capacity
-        self.neighbours = ti.ndarray(ti.i32, shape=(self.capacity, NEIGHBOUR_CAPACITY))
+        self.neighbours = ti.ndarray(ti.i32, shape=self.capacity * NEIGHBOUR_CAPACITY)
+        self.first = ti.ndarray(ti.i32, shape=self.capacity)
         self.neighbour_count = ti.ndarray(ti.i32, shape=self.capacity)
         self.touching = ti.ndarray(ti.i32, shape=self.capacity)
         self._lists = None
@@ -343,12 +368,12 @@ class HashGrid:
     def lists(self) -> ListArgs:
         """The neighbour lists of the last `build` as kernels take them (types.ListArgs)."""
         if self._lists is None:
-            self._lists = ListArgs(neighbours=self.neighbours, neighbour_count=self.neighbour_count)
+            self._lists = ListArgs(neighbours=self.neighbours, first=self.first, neighbour_count=self.neighbour_count)
         return self._lists
 
     def arrays(self) -> list:
         """Every array the grid holds (for memory accounting)."""
-        lists = [self.neighbours, self.neighbour_count, self.touching] if self.list_capacity else []
+        lists = [self.neighbours, self.first, self.neighbour_count, self.touching] if self.list_capacity else []
         return [self.bucket, self.rank, self.entries, self.sorted_xr, self.counts, self.starts, self.block_sums] + lists
 
     def build(self, x, radius, flags, n: int, cell_size: float, margin: float, forward: bool = False,
@@ -364,9 +389,10 @@ class HashGrid:
         self._ensure_lists()
         self.forward = bool(forward)
         mode = (FORWARD_RADIUS if by_radius else FORWARD_SORTED) if forward else FULL
+        cpu = runtime.info().arch == "cpu"
         _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin,
-                    margin_radii=margin_radii, forward=mode, local=runtime.info().arch == "cpu", lists=self.lists,
-                    touching=self.touching, overflow=self.overflow, listed=self.listed)
+                    margin_radii=margin_radii, forward=mode, local=cpu, block=PACKED_BLOCK if cpu else 1,
+                    lists=self.lists, touching=self.touching, overflow=self.overflow, listed_any=self.listed)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions
@@ -394,12 +420,19 @@ class HashGrid:
         span = cell_span(x, flags, n, self.inv_cell, self._bounds, interleaved=runtime.info().arch != "cpu")
         return None if span is None else (span[1].astype(np.int64) - span[0] + 1).tolist()
 
+    def own_lists(self, n: int) -> list:
+        """Host copies of the lists as built: one index array per particle (forward lists:
+        each pair in one of the two particles' arrays only)."""
+        counts = self.neighbour_count.to_numpy()[:n]
+        first = self.first.to_numpy()[:n]
+        flat = self.neighbours.to_numpy()
+        return [flat[first[i]:first[i] + counts[i]] for i in range(n)]
+
     def neighbour_lists(self, n: int):
         """Host copies: a list of index arrays, one per particle (for tests and debugging); from
         forward lists, each pair appears in both particles' arrays, as from full ones."""
-        counts = self.neighbour_count.to_numpy()[:n]
-        table = self.neighbours.to_numpy()[:n]
-        lists = [table[i, : counts[i]] for i in range(n)]
+        lists = self.own_lists(n)
+        counts = np.array([len(row) for row in lists], dtype=np.int64)
         if self.forward:
             owner = np.repeat(np.arange(n), counts)
             listed = np.concatenate(lists) if n else np.zeros(0, int)

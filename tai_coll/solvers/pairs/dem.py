@@ -21,7 +21,7 @@ import functools
 
 import taichi as ti
 
-from ...neighbors.hash_grid import cell_of, query_span, query_spans
+from ...neighbors.hash_grid import cell_of, neighbour_of, query_span, query_spans
 from ...response.laws import pair_normal
 from ...response.penalty import SPHERE_INERTIA, friction_force, rolling_torque, spring_damper, tangential_spring
 from ...types import ACTIVE, ARRAY, GridArgs, ListArgs, ParticleArgs, SpinArgs, Unused, vec3, vec4
@@ -212,7 +212,7 @@ def dem_force_kernel(precision: str, listed: bool, with_springs: bool, spinning:
                     if ti.static(with_springs):
                         kept = springs.held[i]
                     for e in range(candidates.neighbour_count[i]):
-                        j = candidates.neighbours[i, e]
+                        j = neighbour_of(candidates, i, e)
                         touching, carried, total, turn = _gather(
                             i, own, batch, touching, j, vec4(particles.x[j], particles.radius[j]), 0, kept, carried,
                             total, turn, particles, spin, candidates, ids, springs, law, listed, with_springs, spinning)

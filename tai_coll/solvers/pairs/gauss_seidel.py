@@ -41,6 +41,7 @@ The colouring needs the buckets the neighbour lists were built from (HashGrid.bu
 import taichi as ti
 
 from ... import runtime
+from ...neighbors.hash_grid import neighbour_of
 from ...response.laws import TINY, pair_normal, respond
 from ...types import ARRAY, GridArgs, ListArgs, ParticleArgs, ivec3, vec3
 from .placement import placed_overlap
@@ -164,7 +165,7 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
         x_start = particles.x[i]
         allowance_i = particles.allowance[i]
     for k in range(lists.neighbour_count[i]):
-        j = lists.neighbours[i, k]
+        j = neighbour_of(lists, i, k)
         asleep_j = 0
         if ti.static(sleep):
             asleep_j = ti.cast(is_asleep(particles, j), ti.i32)

@@ -15,6 +15,7 @@ it found anything to do.
 
 import taichi as ti
 
+from ...neighbors.hash_grid import neighbour_of
 from ...response.laws import pair_normal, respond
 from ...types import ACTIVE, ARRAY, ListArgs, ParticleArgs, vec3
 from .placement import placed_overlap
@@ -55,7 +56,7 @@ def velocity_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, v_t
             # every listed neighbour is evaluated and the touching, approaching ones kept
             # (selects, no branches: which ones they are is not predictable, and without
             # branches the processor overlaps the neighbours' arithmetic)
-            j = lists.neighbours[i, k]
+            j = neighbour_of(lists, i, k)
             xj = x1[j]
             reach = ri + particles.radius[j]
             touching = (xi - xj).norm_sqr() < reach * reach
@@ -109,7 +110,7 @@ def projection_pass(particles: ParticleArgs, lists: ListArgs, contacts: ARRAY, r
         xi = x1[i]
         ri = particles.radius[i]
         for k in range(lists.neighbour_count[i]):  # branch-free, as in velocity_pass
-            j = lists.neighbours[i, k]
+            j = neighbour_of(lists, i, k)
             xj = x1[j]
             reach = ri + particles.radius[j]
             nrm, dist = pair_normal(xi, xj, i, j)

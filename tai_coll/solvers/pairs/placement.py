@@ -39,7 +39,7 @@ import math
 import taichi as ti
 
 from ... import runtime
-from ...neighbors.hash_grid import cell_of, query_span, query_spans
+from ...neighbors.hash_grid import cell_of, neighbour_of, query_span, query_spans
 from ...response.laws import TINY, pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, GridArgs, ListArgs, ParticleArgs, vec3
 from ..detection import BOUND_SLOT, collider_sdf
@@ -177,7 +177,7 @@ def _crowds(particles: ParticleArgs, lists: ListArgs,
         if _eligible(particles, i):
             placed_i = particles.allowance[i] > 0.0
             for k in range(lists.neighbour_count[i]):
-                j = lists.neighbours[i, k]
+                j = neighbour_of(lists, i, k)
                 if (placed_i or particles.allowance[j] > 0.0) and _eligible(particles, j):
                     member[i] = 1
                     member[j] = 1
@@ -341,7 +341,7 @@ def _walk(stage: ti.template(), i, slot, particles: ti.template(), candidates: t
     left = vec2(0.0, 0.0)
     if ti.static(listed):
         for e in range(candidates.neighbour_count[i]):
-            pairs, push, brake, left = _visit(stage, i, candidates.neighbours[i, e], xi, ri, ai, particles, counts,
+            pairs, push, brake, left = _visit(stage, i, neighbour_of(candidates, i, e), xi, ri, ai, particles, counts,
                                               dx, push_distance, pairs, push, brake, left)
     else:
         home = cell_of(candidates.sorted_xr[slot].xyz, inv_cell)

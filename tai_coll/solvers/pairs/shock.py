@@ -28,6 +28,7 @@ immovable: the spring keeps its law up to the limit, and nothing sinks through.
 
 import taichi as ti
 
+from ...neighbors.hash_grid import neighbour_of
 from ...response.laws import pair_normal
 from ...types import ACTIVE, ARRAY, ColliderArgs, ListArgs, ParticleArgs, host_vector, vec3
 from ..detection import collider_sdf
@@ -95,7 +96,7 @@ def _propagate(particles: ParticleArgs, lists: ListArgs, x1: ARRAY, up: vec3,
         if particles.flags[i] == ACTIVE:
             ri = particles.radius[i]
             for k in range(lists.neighbour_count[i]):
-                j = lists.neighbours[i, k]
+                j = neighbour_of(lists, i, k)
                 d = x1[i] - x1[j]
                 touch = (ri + particles.radius[j]) * (1.0 + SUPPORT_TOUCH)
                 d2 = d.norm_sqr()
@@ -171,7 +172,7 @@ def limit_passes(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.te
             if particles.flags[i] == ACTIVE:
                 ri = particles.radius[i]
                 for k in range(lists.neighbour_count[i]):
-                    j = lists.neighbours[i, k]
+                    j = neighbour_of(lists, i, k)
                     rj = particles.radius[j]
                     overlap = ri + rj - (particles.x[i] - particles.x[j]).norm()
                     # overlap a particle was placed with is the separation's (placement.py), by
@@ -189,7 +190,7 @@ def limit_passes(particles: ParticleArgs, colliders: ColliderArgs, groups: ti.te
                 ri = particles.radius[i]
                 mi = particles.mass[i]
                 for k in range(lists.neighbour_count[i]):
-                    j = lists.neighbours[i, k]
+                    j = neighbour_of(lists, i, k)
                     rj = particles.radius[j]
                     nrm, dist = pair_normal(particles.x[i], particles.x[j], i, j)
                     excess = (ri + rj - dist - limit * ti.min(ri, rj)
