@@ -91,6 +91,34 @@ def test_packed_lists_follow_each_other_and_overfull_ones_stay_within_their_bloc
         assert np.array_equal(lists[i], np.flatnonzero((d[i] < 2 * 0.02 + margin) & (np.arange(n) != i))), i
 
 
+@pytest.mark.parametrize("forward", [False, True])
+def test_the_gpus_list_layout_holds_the_same_lists(forward):
+    # GPUs write each kept neighbour straight into the particle's own NEIGHBOUR_CAPACITY places
+    # (a block of one); the same kernel run that way here lists what the CPU's packed lists do.
+    from tai_coll.neighbors import hash_grid
+    from tai_coll.neighbors.hash_grid import FORWARD_SORTED, FULL, NEIGHBOUR_CAPACITY
+
+    rng = np.random.default_rng(7)
+    x = np.concatenate([rng.uniform(-0.3, 0.3, (400, 3)), rng.uniform(-0.01, 0.01, (60, 3)) + 0.5])
+    radius = rng.uniform(0.01, 0.02, len(x))
+    n, margin = len(x), 0.004
+    grid = grid_of(x, radius, margin, forward)
+    packed = grid.own_lists(n)
+    dropped = grid.dropped()
+    hash_grid._neighbours(grid=grid.args, flags=on_device(np.zeros(n, int)), n=n, inv_cell=grid.inv_cell,
+                          margin=margin, margin_radii=0.0, forward=FORWARD_SORTED if forward else FULL, local=False,
+                          block=1, lists=grid.lists, touching=grid.touching, overflow=grid.overflow,
+                          listed_any=grid.listed)
+    first = grid.first.to_numpy()[:n]
+    slot_of = np.empty(n, int)
+    slot_of[grid.entries.to_numpy()[:n]] = np.arange(n)
+    assert np.array_equal(first, slot_of * NEIGHBOUR_CAPACITY)
+    rows = grid.own_lists(n)
+    assert dropped > 0 and grid.dropped() == 2 * dropped
+    for i in range(n):
+        assert np.array_equal(rows[i], packed[i]), i
+
+
 @pytest.mark.parametrize("interleaved", [False, True])
 @pytest.mark.parametrize("n", [1, 5, 255, 257, 1000])
 def test_cell_span_is_the_active_particles_lowest_and_highest_cell(n, interleaved):
