@@ -223,3 +223,57 @@ def test_a_collider_added_where_particles_sleep_wakes_them():
     scene.step(20)
     assert scene.positions()[0, 0] <= wall - 0.99 * R
     assert abs(scene.positions()[0, 1] - R) < 1e-3 * R  # still on the floor
+
+
+@pytest.mark.parametrize("wake", ["gravity", "velocities", "collider"])
+def test_substeps_where_every_particle_sleeps_are_skipped_and_change_nothing(wake, monkeypatch):
+    # Once every particle sleeps, a substep would leave the state as it was: it is skipped (no
+    # lists built), and the state stays the same to the bit, as the substeps that are not
+    # skipped leave it. What wakes particles from outside ends the skipping.
+    from tai_coll.solvers.pairs import collisions
+
+    skipped = sleeping_row(3)
+    full = sleeping_row(3)
+    pairs = skipped.particle_collisions
+    builds, full_builds = pairs.list_builds, full.particle_collisions.list_builds
+    x, v = skipped.positions(), skipped.velocities()
+    skipped.step(10)
+    with monkeypatch.context() as patch:  # the same substeps, none skipped
+        patch.setattr(collisions, "all_asleep", lambda awake, then, now: False)
+        full.step(10)
+    assert pairs.list_builds == builds and full.particle_collisions.list_builds == full_builds + 50
+    for scene in (skipped, full):
+        assert np.array_equal(scene.positions(), x) and np.array_equal(scene.velocities(), v)
+        assert scene.sleeping().all()
+    for scene in (skipped, full):
+        if wake == "gravity":
+            scene.gravity = (2.0, -9.81, 0.0)  # the row slides along x on its frictionless floor
+        elif wake == "velocities":
+            scene.set_velocities(np.tile([0.2, 0.0, 0.0], (3, 1)))
+        else:  # a wall just touching the last particle, which holds it and wakes them all
+            scene.add_collider(tc.Plane(point=(x[2, 0] + R, 0.0, 0.0), normal=(-1.0, 0.0, 0.0)))
+        scene.step(5)
+    assert pairs.list_builds == builds + 25
+    assert np.array_equal(skipped.positions(), full.positions())
+    assert np.array_equal(skipped.velocities(), full.velocities())
+    if wake != "collider":
+        assert skipped.positions()[:, 0].mean() > x[:, 0].mean() + 0.1 * R
+
+
+def test_a_sleeping_row_resumed_from_a_state_skips_as_the_saved_run_would(tmp_path):
+    # save_state keeps what the skip watches: the resumed run skips the substeps the saved one
+    # skips, and ends with the same state to the bit once woken.
+    scene = sleeping_row(3)
+    path = scene.save_state(tmp_path / "asleep.npz")
+    resumed = tc.Scene(dt=1 / 1000, substeps=5)
+    resumed.add_collider(tc.Plane(), material=tc.Material(restitution=0.0, friction=0.0))
+    resumed.enable_particle_collisions(material=tc.Material(restitution=1.0, friction=0.0))
+    resumed.load_state(path)
+    for run in (scene, resumed):
+        builds = run.particle_collisions.list_builds
+        run.step(4)
+        assert run.particle_collisions.list_builds == builds
+        run.gravity = (2.0, -9.81, 0.0)
+        run.step(6)
+    assert np.array_equal(resumed.positions(), scene.positions())
+    assert np.array_equal(resumed.velocities(), scene.velocities())

@@ -158,6 +158,7 @@ class ParticleStore:
         # from the host, growth, permutations): what a step keeps between substeps (the
         # pair solver's neighbour lists) holds only while it is unchanged.
         self.edits = 0
+        self.wakes = 0  # calls of wake_all (what the pair solver's skip watches: sleeping.all_asleep)
         # Angular velocities w (rad/s), kept only once a solver that spins particles asks for
         # them (enable_spin): the other solvers treat particles as points.
         self.w = None
@@ -343,6 +344,7 @@ class ParticleStore:
         """Every sleeping particle awake, every rest time back to zero (the state was written
         from the host, gravity changed, ...: docs/physics.md 5.3.1)."""
         self.rest.fill(0.0)
+        self.wakes += 1
 
     def permute(self, order, n: int):
         """Reorder the storage: slot k gets the particle of slot order[k] (order: an ndarray

@@ -2,8 +2,7 @@
 
 A substep with impulse pairs (the ImpulseSolver's, `impulse_substep`), in phases:
 1. predict: candidates x1 = x + dt v1, v1 = v + dt g (symplectic Euler; predict.py);
-2. neighbours: the hash grid on the candidates, lists of particles within reach (kept from
-   earlier substeps while they hold, with a Verlet skin);
+2. neighbours: lists of particles within reach at the candidates (the hash grid);
 3. elastic pass: for pairs overlapping at the candidates, the law with restitution on the
    velocities at the start of the substep, its change added to the candidates; then the
    colliders' own scheme on the candidates;
@@ -23,16 +22,14 @@ A substep with impulse pairs (the ImpulseSolver's, `impulse_substep`), in phases
 6. colliders: the solver resolves the candidates against the colliders last, so no particle
    ends inside a collider; the result is the new state.
 The passes visit the pairs one after another over a colouring of the grid (gauss_seidel.py,
-the default) or all at once (jacobi.py).
-
-A substep with DEM pairs (the PenaltySolver's, `dem_substep`): the pair forces at the
-substep's start (dem.py), from the grid sorted this substep or from Verlet lists, then the
-solver's substep against the colliders with those forces as loads; while overlap particles
-were placed with is left, a separation by positions after it (placement.separate).
-
-Both reorder the particle store by cell now and then (`reorder`): neighbours then lie near
-each other in memory. The settings are a PairSettings (settings.py); this object holds the
-work arrays, the grid, the lists and the springs, and counts what happened.
+the default) or all at once (jacobi.py). A substep after which every particle sleeps, none
+woken since, is skipped: it would change nothing (sleeping.all_asleep).
+A substep with DEM pairs (the PenaltySolver's, `dem_substep`): the pair forces at the start
+(dem.py), then the solver's substep against the colliders with them as loads; while overlap
+particles were placed with is left, a separation by positions after it (placement.separate).
+Both reorder the particle store by cell now and then (`reorder`). The settings are a
+PairSettings (settings.py); this object holds the work arrays, the grid, the lists and the
+springs, and counts what happened.
 """
 
 import math
@@ -50,19 +47,17 @@ from ..penalty import Forces, ForcesAndTorques
 from . import dem, gauss_seidel, jacobi, shock
 from .overlap import overlap
 
-#: A body resting on particles held by their supports stops on them (docs/physics.md 7.2)
-#: where it meets them slower than this many times |g| dt (a resting contact closes at
-#: |g| dt a substep); faster, the blow is shared with them by mass.
+#: A body resting on particles held by their supports stops on them (docs/physics.md 7.2) where it meets
+#: them slower than this many times |g| dt (a resting contact closes at |g| dt a substep); faster, they share it.
 HELD_SPEED = 4.0
 from .placement import (DEM_CEILING, DEM_SHRINK, SHRINK, PushCap, cap_push_velocity, grant_allowances, separate,
                         shrink_allowances)
 from .predict import predict_kernel
-from .sleeping import update_rest
+from .sleeping import all_asleep, update_rest
 from .settings import PairSettings
 from .springs import SpringHistory
 
-# Substeps (builds of the lists) between reorderings of the store by cell: particles move
-# little in a few substeps, so the order stays coherent, and the permutation's cost is spread.
+# Builds of the lists between reorderings of the store by cell (particles move little meanwhile: it stays coherent).
 REORDER_INTERVAL = 8
 # Radius ratio (largest / smallest) beyond which each pair is listed by its smaller particle.
 BY_RADIUS_RATIO = 2.0
@@ -105,6 +100,7 @@ class ParticleCollisions:
         self._pushing = True  # whether the last resort may push particles out of colliders (see impulse_substep)
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._push_cap = None  # placement.PushCap: its work while allowances are left
+        self._awake, self._slept = ti.ndarray(ti.i32, shape=1), None  # update_rest's (see all_asleep)
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -135,7 +131,7 @@ class ParticleCollisions:
     # ---------------------------------------------------------------- counters
     @property
     def list_builds(self) -> int:
-        """Substeps that built the neighbour lists (the others reused them)."""
+        """Substeps that built the neighbour lists (the others reused them, or every particle slept)."""
         return self.lists.builds
 
     @property
@@ -213,6 +209,10 @@ class ParticleCollisions:
                    wet_law=WET_LAWS["linear"])
         placed = self._place(particles)
         sleep = self._may_sleep(world)
+        now = (particles.edits, particles.count, particles.wakes, world.colliders.version)
+        if sleep and not (placed or self._pushing or (world.bodies is not None and world.bodies.open)) and \
+                settings.method == "gauss-seidel" and reads_pass_flags() and all_asleep(self._awake, self._slept, now):
+            return  # every particle sleeps and none was woken: the substep would change nothing (all_asleep)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         #    (and v(t) into v_start, x(t) into delta while particles may sleep: see 3.)
@@ -299,7 +299,8 @@ class ParticleCollisions:
         self._relax(particles, dt)
         if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
             update_rest(particles.args, self.delta, self.v_start, host_vector(world.gravity), dt,
-                        settings.sleep_time, settings.sleep_drift)
+                        settings.sleep_time, settings.sleep_drift, self._awake)
+            self._slept = (particles.edits, particles.count, particles.wakes, world.colliders.version)
 
     def _support_levels(self, world, x):
         """The support levels (shock.py) at positions x, into self.levels."""
@@ -425,11 +426,10 @@ class ParticleCollisions:
 
     def _passed(self) -> bool:
         """Whether the last pass had anything to do; a Jacobi pass that did passes its contact
-        counts on to the next (see jacobi.pair_share). On a GPU the flag is not read and the
-        passes run their full count: a read waits for every kernel launched before it, so the
-        host could never launch ahead of the GPU (on an H200, 1M-particle bed: Jacobi passes
-        80 ms a frame with the reads, 36 without; Gauss-Seidel 105 and 79). A pass after one
-        that found nothing to do finds nothing either, and leaves the state as it was."""
+        counts on to the next (see jacobi.pair_share). On a GPU the flag is not read and the passes run their
+        full count: a read waits for every kernel launched before it, so the host could never launch ahead of the
+        GPU (an H200, 1M-particle bed: Jacobi passes 80 ms a frame with the reads, 36 without; Gauss-Seidel 105
+        and 79). A pass after one that found nothing to do finds nothing either, and leaves the state as it was."""
         changed = self._changed() if reads_pass_flags() else True
         if changed and self.settings.method == "jacobi":
             self._counts.reverse()

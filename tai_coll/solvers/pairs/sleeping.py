@@ -42,6 +42,7 @@ ParticleStore.anchor its anchor.
 
 import taichi as ti
 
+from ... import runtime
 from ...types import ACTIVE, ARRAY, ParticleArgs, vec3
 
 #: A sleep_time (s) that suits piles of millimetre to centimetre particles (sleeping is off
@@ -115,12 +116,16 @@ def wake_pair(particles: ti.template(), i, j, asleep_i, asleep_j, v_i: vec3, v_j
 
 @ti.kernel
 def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity: vec3, dt: float,
-                sleep_time: float, sleep_drift: float):
+                sleep_time: float, sleep_drift: float,
+                # output
+                awake: ARRAY):
     """At the end of a substep (the new state stored; x_start, v_start: x(t) and v(t), the
     latter changed by the elastic pass only): each awake particle's rest time and anchor, and
     those that have rested for sleep_time put to sleep. A particle that was resting before
     the substep and still is keeps a velocity no faster than its displacement over the
-    substep: its stored velocity describes its motion (see the module's notes)."""
+    substep: its stored velocity describes its motion (see the module's notes). awake[0]:
+    whether any particle is awake at the end."""
+    awake[0] = 0
     for i in range(particles.count):
         if particles.flags[i] == ACTIVE:
             vi = particles.v[i]
@@ -150,3 +155,18 @@ def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity
                     rest_i = 0.0
                     particles.anchor[i] = xi
                 particles.rest[i] = rest_i
+                if rest_i >= 0.0 and awake[0] == 0:
+                    awake[0] = 1  # (read first: one shared line, written once)
+
+
+def all_asleep(awake, key_then, key_now) -> bool:
+    """Whether every particle slept at the end of the last substep (update_rest's `awake`,
+    written under key_then) and nothing woke one since (key_now is still key_then), so that the
+    next substep would change nothing: a sleeping particle does not move, the passes skip a
+    pair of two sleeping ones, the colliders' passes leave a sleeping particle alone (colliders
+    hold still while particles sleep), and update_rest puts it back where the substep found it.
+    What can wake one from outside changes the key (ParticleCollisions.impulse_substep): the
+    store's edits (host writes, added and removed particles, reordering), its calls of
+    wake_all (gravity changed, sleeping turned off) and the collider table's version (a
+    collider added). A read from the device."""
+    return key_now == key_then and int(runtime.read_small(awake, 1)[0]) == 0
