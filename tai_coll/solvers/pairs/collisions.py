@@ -53,7 +53,7 @@ HELD_SPEED = 4.0
 from .placement import (DEM_CEILING, DEM_SHRINK, SHRINK, PushCap, cap_push_velocity, grant_allowances, separate,
                         shrink_allowances)
 from .predict import predict_kernel
-from .sleeping import all_asleep, update_rest
+from .sleeping import all_asleep, update_rest, wake_key
 from .settings import PairSettings
 from .springs import SpringHistory
 
@@ -209,7 +209,7 @@ class ParticleCollisions:
                    wet_law=WET_LAWS["linear"])
         placed = self._place(particles)
         sleep = self._may_sleep(world)
-        now = (particles.edits, particles.count, particles.wakes, world.colliders.version)
+        now = wake_key(particles, world.colliders)
         if sleep and not (placed or self._pushing or (world.bodies is not None and world.bodies.open)) and \
                 settings.method == "gauss-seidel" and reads_pass_flags() and all_asleep(self._awake, self._slept, now):
             return  # every particle sleeps and none was woken: the substep would change nothing (all_asleep)
@@ -300,7 +300,7 @@ class ParticleCollisions:
         if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
             update_rest(particles.args, self.delta, self.v_start, host_vector(world.gravity), dt,
                         settings.sleep_time, settings.sleep_drift, self._awake)
-            self._slept = (particles.edits, particles.count, particles.wakes, world.colliders.version)
+            self._slept = wake_key(particles, world.colliders)
 
     def _support_levels(self, world, x):
         """The support levels (shock.py) at positions x, into self.levels."""

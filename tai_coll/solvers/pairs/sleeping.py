@@ -159,14 +159,19 @@ def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity
                     awake[0] = 1  # (read first: one shared line, written once)
 
 
+def wake_key(particles, colliders) -> tuple:
+    """What changes when something outside the substeps may wake a particle (see all_asleep):
+    the store's edits, its count and its calls of wake_all, and the collider table's version."""
+    return particles.edits, particles.count, particles.wakes, colliders.version
+
+
 def all_asleep(awake, key_then, key_now) -> bool:
     """Whether every particle slept at the end of the last substep (update_rest's `awake`,
     written under key_then) and nothing woke one since (key_now is still key_then), so that the
     next substep would change nothing: a sleeping particle does not move, the passes skip a
     pair of two sleeping ones, the colliders' passes leave a sleeping particle alone (colliders
     hold still while particles sleep), and update_rest puts it back where the substep found it.
-    What can wake one from outside changes the key (ParticleCollisions.impulse_substep): the
-    store's edits (host writes, added and removed particles, reordering), its calls of
-    wake_all (gravity changed, sleeping turned off) and the collider table's version (a
-    collider added). A read from the device."""
+    What can wake one from outside changes the key (wake_key): the store's edits (host writes,
+    added and removed particles, reordering), its calls of wake_all (gravity changed, sleeping
+    turned off) and the collider table's version (a collider added). A read from the device."""
     return key_now == key_then and int(runtime.read_small(awake, 1)[0]) == 0
