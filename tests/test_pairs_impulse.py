@@ -429,6 +429,59 @@ def test_one_projection_pass_separates_every_isolated_pair(method, relaxation, m
     assert np.allclose(after, before, atol=1e-5 * r)
 
 
+@pytest.mark.parametrize("asleep", [False, True])
+def test_a_projection_pass_leaves_listed_pairs_that_do_not_overlap_exactly_as_they_were(asleep):
+    # A lattice at 2.1 r: every neighbour is listed (within the 0.25 r margin) and none
+    # overlaps. The projection pass moves every listed pair, by zero where it does not overlap
+    # (gauss_seidel._particle_pairs): positions and velocities must come back bit for bit and
+    # the pass must report nothing done (the loop of passes ends on that). Then one pair pushed
+    # into overlap: it alone is separated, split by mass, and every other particle stays
+    # bit-identical. asleep: every other particle of the lattice sleeps (immovable).
+    from tai_coll.types import ParticleArgs
+
+    r = 0.01
+    g = np.arange(6) * 2.1 * r
+    x = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3) + [0.0, 0.5, 0.0]
+    n = len(x)
+    rng = np.random.default_rng(3)
+    v = rng.normal(0.0, 0.1, (n, 3))
+    mass = rng.uniform(1.0, 2.0, n)
+    rest = np.where(np.arange(n) % 2 == 1, -1.0, 0.0) if asleep else np.zeros(n)
+
+    def project(x):
+        grid = grid_of(x, np.full(n, r), 0.25 * r, forward=True)
+        assert np.mean([len(row) for row in grid.own_lists(n)]) > 2.0  # (the lattice's pairs are listed)
+        x1, v1, changed = on_device(x), on_device(v), on_device(np.zeros(1, int))
+        particles = ParticleArgs(count=n, x=on_device(x), v=on_device(v), mass=on_device(mass),
+                                 radius=on_device(np.full(n, r)), flags=on_device(np.zeros(n, int)),
+                                 allowance=on_device(np.zeros(n)), rest=on_device(rest),
+                                 anchor=on_device(x), stats=on_device(np.zeros(4, int)))
+        gauss_seidel.projection_pass(particles, grid.args, grid.lists, 1.0, 1e-3, False, 0.0, changed, x1, v1,
+                                     sleep=asleep)
+        return x1.to_numpy(), v1.to_numpy(), changed[0]
+
+    x = x.astype(np.float32).astype(float)  # (held exactly in f32 and f64: "unchanged" is to the bit)
+    v = v.astype(np.float32).astype(float)
+    x1, v1, changed = project(x)
+    assert changed == 0
+    assert np.array_equal(x1, x) and np.array_equal(v1, v)
+    a, b = 2 * 36 + 2 * 6 + 2, 2 * 36 + 2 * 6 + 3  # two neighbours along z inside the lattice (a awake)
+    pushed = x.copy()
+    pushed[b, 2] -= 0.3 * r  # now 1.8 r apart
+    pushed = pushed.astype(np.float32).astype(float)
+    x1, v1, changed = project(pushed)
+    assert changed == 1
+    others = np.ones(n, bool)
+    others[[a, b]] = False
+    assert np.array_equal(x1[others], pushed[others]) and np.array_equal(v1[others], v[others])
+    assert np.linalg.norm(x1[a] - x1[b]) == pytest.approx(2 * r, rel=1e-5)
+    if asleep and rest[b] < 0:
+        assert np.array_equal(x1[b], pushed[b]) and np.array_equal(v1[b], v[b])  # (immovable: a takes it all)
+    else:
+        centre = (mass[a] * x1[a] + mass[b] * x1[b]) / (mass[a] + mass[b])
+        assert np.allclose(centre, (mass[a] * pushed[a] + mass[b] * pushed[b]) / (mass[a] + mass[b]), atol=1e-6 * r)
+
+
 def settle(x, v, mass, r, law, **options):
     """gauss_seidel.settle_pass over particles at x (radius r) with velocities v, masses mass and
     the pair law `law` (restitution, friction); options: settle_pass's. Returns (x1, v1 after,
