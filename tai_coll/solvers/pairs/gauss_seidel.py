@@ -197,10 +197,12 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
             # 15 % less time; the velocity passes, made the same way, took 60 % more: there most
             # touching pairs are not approaching, and with the branch they stay off the chain
             # (docs/design-notes.md, "Visiting a pair against resolving it")
-            overlaps = (d2 < touch * touch) & ((asleep_i & asleep_j) == 0)
+            # (a pair of two sleeping particles was skipped above; the select keeps a pair's
+            # arithmetic out of its particles' positions however far apart they are)
+            overlaps = d2 < touch * touch
             nrm, dist = pair_normal(xi, xj, i, j)
             wi, wj = _pair_shares(shock, particles, levels, i, j, mi, asleep_i, asleep_j)
-            move = ti.select(overlaps, (reach - dist) * relaxation, 0.0) * nrm
+            move = ti.select(overlaps, ((reach - dist) * relaxation) * nrm, vec3(0.0))
             found |= ti.cast(overlaps, ti.i32)
             xi += wi * move
             moved += wi * move
