@@ -30,6 +30,22 @@ def test_hash_grid_matches_brute_force(offset, forward):
     assert_lists_match_brute_force(grid_of(x, radius, margin, forward), x, radius, margin, forward)
 
 
+@pytest.mark.parametrize("forward", [False, True])
+def test_lists_of_clusters_scattered_over_many_table_widths_match_brute_force(forward):
+    # 400 clusters of 4 touching particles, spread over about 30 widths of the grid's table
+    # along each axis: clusters cross the table's edges (where a query's rows wrap around to
+    # the far side), so forward lists must also read rows whose buckets come after the
+    # particle's own only by wrapping (hash_grid._neighbours skips the rows wholly before it).
+    rng = np.random.default_rng(11)
+    r = 0.01
+    centres = rng.uniform(-4.0, 4.0, (400, 3))
+    x = (centres[:, None, :] + rng.uniform(-1.5 * r, 1.5 * r, (400, 4, 3))).reshape(-1, 3)
+    radius = np.full(len(x), r)
+    grid = grid_of(x, radius, 0.25 * r, forward)
+    assert (1 << int(max(grid.bits))) * 2.25 * r < 0.8  # (the table: a tenth of the spread or less)
+    assert_lists_match_brute_force(grid, x, radius, 0.25 * r, forward)
+
+
 def assert_lists_match_brute_force(grid, x, radius, margin, forward):
     """The grid's lists (and its touching counts, from full lists) against all pairs."""
     n = len(x)
