@@ -179,6 +179,13 @@ def query_spans(home: ivec3, bits: ivec3) -> ti.i32:
 
 
 @ti.func
+def row_bucket(home: ivec3, q, bits: ivec3) -> ti.i32:
+    """The first of the three buckets of row q (dy = q // 3 - 1, dz = q % 3 - 1) of a query
+    around cell `home` whose rows do not wrap along x (query_spans 9)."""
+    return bucket_of(home + ivec3(-1, q // 3 - 1, q % 3 - 1), bits)
+
+
+@ti.func
 def query_span(home: ivec3, q, spans, bits: ivec3, starts: ti.template()):
     """Entries begin..end of range q of a query around cell `home` (spans: query_spans):
     the rows at dy = q // 3 - 1, dz = q % 3 - 1 (9 spans), or cell q % 3 of row q // 3
@@ -186,7 +193,7 @@ def query_span(home: ivec3, q, spans, bits: ivec3, starts: ti.template()):
     begin = 0
     end = 0
     if spans == 9:
-        first = bucket_of(home + ivec3(-1, q // 3 - 1, q % 3 - 1), bits)
+        first = row_bucket(home, q, bits)
         begin = starts[first]
         end = starts[first + 3]
     else:
@@ -285,7 +292,7 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
                     # a row of buckets wholly before the particle's own holds no entry after it: no
                     # need to read where its entries are (rows that wrap around the table along y or
                     # z lie after it, and are read; 6 % off the kernel in a dense pile)
-                    if spans == 9 and bucket_of(home + ivec3(-1, q // 3 - 1, q % 3 - 1), grid.bits) + 3 <= own_bucket:
+                    if spans == 9 and row_bucket(home, q, grid.bits) + 3 <= own_bucket:
                         continue
                 begin, end = query_span(home, q, spans, grid.bits, grid.starts)
                 found, touch = _scan_row(ti.max(begin, after), end, slot, base, xi, own.w, margin, margin_radii,
