@@ -523,13 +523,34 @@ def print_pile_table(rows):
                   f"{rate / 1e6:.2f} M particle-steps/s (target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
 
 
+def report_path(parser, option: str, path) -> Path:
+    """The report file a tool was given with `option`, refused before anything runs (through
+    parser.error: the usage, the message and exit status 2) where no file can be written: a
+    directory, or a path under a file. A benchmark that ran for minutes then could not write
+    its report would lose its figures."""
+    path = Path(path)
+    if path.is_dir():
+        parser.error(f"{option}: {path} is a directory; give the report's file path (a .json file)")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                parser.error(f"{option}: {parent} is a file, so no report can be written at {path}")
+            break
+    return path
+
+
 def write_json(path, report) -> Path:
-    """Write a benchmark report atomically (a temporary file moved into place)."""
+    """Write a benchmark report atomically (a temporary file moved into place; removed if the
+    move fails, so that nothing half-written is left)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(report, indent=2, default=float))
-    tmp.replace(path)
+    try:
+        tmp.write_text(json.dumps(report, indent=2, default=float))
+        tmp.replace(path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 
@@ -579,6 +600,7 @@ def main(argv=None):
         parser.error(f"--pile-variants must list some of {', '.join(VARIANTS)}, reorder; got {unknown or 'nothing'}")
     if args.json is None:
         args.json = str(ROOT / "bench_results" / ("bench_pile.json" if args.pile_only else "bench.json"))
+    report_path(parser, "--json", args.json)
 
     if args.compile_probe:
         print(json.dumps(compile_probe(args)))

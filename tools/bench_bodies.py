@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
-from tools.bench import machine_info, write_json  # noqa: E402
+from tools.bench import machine_info, report_path, write_json  # noqa: E402
 from tools.bench_pile import warmup_particles  # noqa: E402
 
 RADIUS = 0.003
@@ -108,6 +108,7 @@ def main(argv=None):
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_bodies.json"))
     args = parser.parse_args(argv)
+    report_path(parser, "--out", args.out)
     tc.init(arch=args.arch, threads=args.threads if args.arch == "cpu" else None)
     for variant in ("bodies", "kinematic"):  # compile every kernel first, on a smaller scene
         build(variant, warmup_particles()).step(2)

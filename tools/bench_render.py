@@ -48,7 +48,14 @@ def main(argv=None):
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--json", default=str(ROOT / "bench_results" / "render.json"))
     args = parser.parse_args(argv)
-    width, height = (int(v) for v in args.res.lower().split("x"))
+    try:
+        width, height = (int(v) for v in args.res.lower().split("x"))
+        if width < 1 or height < 1:
+            raise ValueError
+    except ValueError:
+        parser.error(f"--res: give WIDTHxHEIGHT in pixels (1280x720); got {args.res!r}")
+    from bench import report_path
+    report_path(parser, "--json", args.json)
 
     import taichi as ti
 

@@ -66,7 +66,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
-from tools.bench import machine_info, write_json  # noqa: E402
+from tools.bench import machine_info, report_path, write_json  # noqa: E402
 
 R = 0.005
 DT = 1.0 / 600.0
@@ -834,6 +834,7 @@ def main(argv=None):
             pair_options(m)
     except ValueError as error:
         parser.error(f"--pair-methods: {error}")
+    report_path(parser, "--out", args.out)
     try:
         import warp as wp
     except ImportError:

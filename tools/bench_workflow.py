@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
-from tools.bench import frame_times, machine_info, write_json  # noqa: E402
+from tools.bench import frame_times, machine_info, report_path, write_json  # noqa: E402
 from tools.bench_pile import warmup_particles  # noqa: E402
 
 RADIUS = 0.005
@@ -57,6 +57,7 @@ def main(argv=None):
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_workflow.json"))
     args = parser.parse_args(argv)
+    report_path(parser, "--out", args.out)
     tc.init(arch=args.arch, threads=args.threads if args.arch == "cpu" else None)
     build(warmup_particles(), True).step(3)  # compile every kernel first, on a smaller scene
     rows = []

@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import bench_pile  # noqa: E402
-from bench import init_taichi, machine_info, write_json  # noqa: E402
+from bench import init_taichi, machine_info, report_path, write_json  # noqa: E402
 
 
 STATS = ("p50", "p99", "max")
@@ -133,6 +133,7 @@ def main(argv=None) -> int:
         parser.error("--seconds and --every must be > 0")
     if args.lattice is not None and args.lattice < 1:
         parser.error("--lattice must be >= 1")
+    report_path(parser, "--json", args.json)
 
     import tai_coll as tc
 
