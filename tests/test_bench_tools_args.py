@@ -54,3 +54,28 @@ def test_a_report_is_written_whole_or_not_at_all(tmp_path):
     with pytest.raises(OSError):
         bench.write_json(tmp_path / "taken", {"rate": 1.0})  # a folder in the way of the move
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sub", "taken"]
+
+
+@pytest.mark.parametrize("main, argv, option", [
+    (bench.main, ["--frames", "0"], "--frames"),
+    (bench.main, ["--threads", "two"], "--threads"),
+    (bench.main, ["--pile-only", "--pile-seconds", "0"], "--pile-seconds"),
+    (bench.main, ["--pile-only", "--pile-seconds-1m", "nan"], "--pile-seconds-1m"),
+    (bench_bodies.main, ["--particles", "0"], "--particles"),
+    (bench_workflow.main, ["--frames", "-1"], "--frames"),
+    (bench_render.main, ["--threads", "0"], "--threads"),
+    (bench_warp.main, ["--layer-frames", "0"], "--layer-frames"),
+    (bench_warp.main, ["--repeats", "0"], "--repeats"),
+    (bench_warp.main, ["--timed", "5"], "--timed"),
+    (bench_warp.main, ["--timed", "105"], "--timed"),
+    (bench_warp.main, ["--settle", "15"], "--settle"),
+    (bench_warp.main, ["--settle", "-10"], "--settle"),
+    (pile_settle.main, ["--threads", "0"], "--threads"),
+], ids=lambda v: " ".join(v) if isinstance(v, list) else None)
+def test_counts_and_times_a_tool_cannot_run_are_refused_naming_the_option(main, argv, option, tmp_path, capsys):
+    report = "--json" if main in (bench.main, bench_render.main, pile_settle.main) else "--out"
+    with pytest.raises(SystemExit) as stop:
+        main([*argv, report, str(tmp_path / "report.json")])
+    assert stop.value.code == 2
+    assert option in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -523,6 +523,31 @@ def print_pile_table(rows):
                   f"{rate / 1e6:.2f} M particle-steps/s (target 5 M: {'met' if rate >= 5e6 else 'NOT met'})")
 
 
+def count(low: int = 1):
+    """An argparse type: a whole number of at least `low` (argparse then names the option in
+    its error: "argument --frames: give 1 or more; got 0")."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number; got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"give {low} or more; got {value}")
+        return value
+    return parse
+
+
+def seconds(text: str) -> float:
+    """An argparse type: a finite time in seconds above zero."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds; got {text!r}") from None
+    if not 0.0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"give a time above 0 s; got {text}")
+    return value
+
+
 def report_path(parser, option: str, path) -> Path:
     """The report file a tool was given with `option`, refused before anything runs (through
     parser.error: the usage, the message and exit status 2) where no file can be written: a
@@ -557,11 +582,11 @@ def write_json(path, report) -> Path:
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--particles", type=int, default=1_000_000)
-    parser.add_argument("--frames", type=int, default=10, help="Taichi frames timed (after compile)")
-    parser.add_argument("--numpy-frames", type=int, default=3, help="NumPy frames timed, from the same start")
+    parser.add_argument("--particles", type=count(), default=1_000_000)
+    parser.add_argument("--frames", type=count(), default=10, help="Taichi frames timed (after compile)")
+    parser.add_argument("--numpy-frames", type=count(), default=3, help="NumPy frames timed, from the same start")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
-    parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
+    parser.add_argument("--threads", type=count(), default=2, help="Taichi CPU threads")
     parser.add_argument("--precision", default="f32", choices=("f32", "f64"),
                         help="precision of both sides (Taichi's default is f32)")
     parser.add_argument("--json", default=None,
@@ -574,9 +599,9 @@ def main(argv=None):
                         help="also particle-particle collisions: piles of 100,000 and 1,000,000 particles "
                              "(100,000 only with --quick) settling in a box (tools/bench_pile.py)")
     parser.add_argument("--pile-only", action="store_true", help="only the pile rows")
-    parser.add_argument("--pile-seconds", type=float, default=0.5,
+    parser.add_argument("--pile-seconds", type=seconds, default=0.5,
                         help="simulated seconds timed from the drop, pile of 100,000 (0.5: fall to dense pile)")
-    parser.add_argument("--pile-seconds-1m", type=float, default=0.06,
+    parser.add_argument("--pile-seconds-1m", type=seconds, default=0.06,
                         help="simulated seconds timed from the drop, pile of 1,000,000 (0.06: the fall and first "
                              "impacts)")
     parser.add_argument("--pile-variants", default="impulse,jacobi,dem,reorder",
@@ -588,7 +613,7 @@ def main(argv=None):
                              "instead of the grid sorted every substep), "
                              "reorder (100,000 only: the impulse pile added in random order, the store's "
                              "reordering by cell off, then on)")
-    parser.add_argument("--pile-seconds-reorder", type=float, default=0.2,
+    parser.add_argument("--pile-seconds-reorder", type=seconds, default=0.2,
                         help="simulated seconds timed from the drop for the reorder rows")
     args = parser.parse_args(argv)
     args.pile = args.pile or args.pile_only

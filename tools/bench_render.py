@@ -40,12 +40,14 @@ def median_ms(times):
 
 
 def main(argv=None):
+    from bench import count, report_path, write_json
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--particles", type=int, default=100_000)
+    parser.add_argument("--particles", type=count(), default=100_000)
     parser.add_argument("--res", default="1280x720")
-    parser.add_argument("--frames", type=int, default=10)
+    parser.add_argument("--frames", type=count(), default=10)
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "vulkan", "auto"))
-    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--threads", type=count(), default=2)
     parser.add_argument("--json", default=str(ROOT / "bench_results" / "render.json"))
     args = parser.parse_args(argv)
     try:
@@ -54,7 +56,6 @@ def main(argv=None):
             raise ValueError
     except ValueError:
         parser.error(f"--res: give WIDTHxHEIGHT in pixels (1280x720); got {args.res!r}")
-    from bench import report_path
     report_path(parser, "--json", args.json)
 
     import taichi as ti
@@ -150,8 +151,6 @@ def main(argv=None):
               "frames": args.frames, "vulkan_driver": vulkan_driver(), "median_ms": rows,
               "render_fps": 1e3 / rows["render"], "loop_overhead_ms": overhead,
               "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    from bench import write_json
-
     path = write_json(args.json, report)
     print(f"wrote {path}")
     return 0

@@ -66,7 +66,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
-from tools.bench import machine_info, report_path, write_json  # noqa: E402
+from tools.bench import count, machine_info, report_path, write_json  # noqa: E402
 
 R = 0.005
 DT = 1.0 / 600.0
@@ -803,25 +803,29 @@ def main(argv=None):
     parser.add_argument("--rows", default="layer,bed")
     parser.add_argument("--layer-particles", type=sizes, default=[1_000_000],
                         help="layer sizes, comma-separated (default 1000000)")
-    parser.add_argument("--layer-frames", type=int, default=10)
+    parser.add_argument("--layer-frames", type=count(), default=10)
     parser.add_argument("--bed-particles", type=sizes, default=[100_000],
                         help="bed sizes, comma-separated (default 100000)")
-    parser.add_argument("--settle", type=int, default=300, help="bed: steps to settle (default 300)")
-    parser.add_argument("--timed", type=int, default=100, help="bed: steps timed (default 100)")
+    parser.add_argument("--settle", type=count(0), default=300,
+                        help=f"bed: steps to settle, a multiple of {SUBSTEPS} (default 300)")
+    parser.add_argument("--timed", type=count(SUBSTEPS), default=100,
+                        help=f"bed: steps timed, a multiple of {SUBSTEPS} (default 100)")
     parser.add_argument("--warp-variants", default=",".join(WARP_VARIANTS),
                         help="bed: Warp's solvers, any of pbd,impulse,dem (default all three)")
     parser.add_argument("--pair-methods", default="gauss-seidel",
                         help="bed: tai_coll's pass methods, any of gauss-seidel,jacobi, each optionally with its "
                              "contact and projection passes (jacobi:2:10); default gauss-seidel")
-    parser.add_argument("--repeats", type=int, default=1,
+    parser.add_argument("--repeats", type=count(), default=1,
                         help="run every row this many times, tai_coll and Warp alternately; each row reports the "
                              "run of median ratio and the ratios' range (default 1)")
     parser.add_argument("--arch", default="cpu")
-    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--threads", type=count(), default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
     args = parser.parse_args(argv)
-    if args.repeats < 1:
-        parser.error(f"--repeats: give 1 or more; got {args.repeats}")
+    for option, steps in (("--settle", args.settle), ("--timed", args.timed)):
+        if steps % SUBSTEPS:
+            parser.error(f"{option}: tai_coll's bed steps frames of {SUBSTEPS} steps: give a multiple of "
+                         f"{SUBSTEPS}; got {steps}")
     variants = [v for v in args.warp_variants.split(",") if v]
     unknown = sorted(set(variants) - set(WARP_VARIANTS))
     if unknown or not variants:

@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
-from tools.bench import frame_times, machine_info, report_path, write_json  # noqa: E402
+from tools.bench import count, frame_times, machine_info, report_path, write_json  # noqa: E402
 from tools.bench_pile import warmup_particles  # noqa: E402
 
 RADIUS = 0.005
@@ -51,10 +51,10 @@ def build(particles: int, emitter: bool) -> tc.Scene:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--particles", type=int, default=100_000)
-    parser.add_argument("--frames", type=int, default=10)
+    parser.add_argument("--particles", type=count(), default=100_000)
+    parser.add_argument("--frames", type=count(), default=10)
     parser.add_argument("--arch", default="cpu")
-    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--threads", type=count(), default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_workflow.json"))
     args = parser.parse_args(argv)
     report_path(parser, "--out", args.out)

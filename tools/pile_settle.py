@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import bench_pile  # noqa: E402
-from bench import init_taichi, machine_info, report_path, write_json  # noqa: E402
+from bench import count, init_taichi, machine_info, report_path, write_json  # noqa: E402
 
 
 STATS = ("p50", "p99", "max")
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
     parser.add_argument("--lattice", type=int, default=None, metavar="N",
                         help="the [2 of 6] lattice pile of N^3 particles instead of the benchmark pile")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
-    parser.add_argument("--threads", type=int, default=2, help="Taichi CPU threads")
+    parser.add_argument("--threads", type=count(), default=2, help="Taichi CPU threads")
     parser.add_argument("--json", default="bench_results/pile_settle.json")
     args = parser.parse_args(argv)
     if args.particles < 1:
