@@ -71,6 +71,9 @@ def test_a_report_is_written_whole_or_not_at_all(tmp_path):
     (bench_warp.main, ["--settle", "15"], "--settle"),
     (bench_warp.main, ["--settle", "-10"], "--settle"),
     (pile_settle.main, ["--threads", "0"], "--threads"),
+    (bench_warp.main, ["--arch", "vulkan"], "--arch"),
+    (bench_bodies.main, ["--arch", "gpu0"], "--arch"),
+    (bench_workflow.main, ["--arch", "tpu"], "--arch"),
 ], ids=lambda v: " ".join(v) if isinstance(v, list) else None)
 def test_counts_and_times_a_tool_cannot_run_are_refused_naming_the_option(main, argv, option, tmp_path, capsys):
     report = "--json" if main in (bench.main, bench_render.main, pile_settle.main) else "--out"

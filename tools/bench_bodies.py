@@ -104,7 +104,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--particles", type=count(), default=100_000)
     parser.add_argument("--frames", type=count(), default=20)
-    parser.add_argument("--arch", default="cpu")
+    parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
     parser.add_argument("--threads", type=count(), default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_bodies.json"))
     args = parser.parse_args(argv)

@@ -818,7 +818,8 @@ def main(argv=None):
     parser.add_argument("--repeats", type=count(), default=1,
                         help="run every row this many times, tai_coll and Warp alternately; each row reports the "
                              "run of median ratio and the ratios' range (default 1)")
-    parser.add_argument("--arch", default="cpu")
+    parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda"),
+                        help="both sides on the CPU or on the first CUDA GPU (default cpu)")
     parser.add_argument("--threads", type=count(), default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
     args = parser.parse_args(argv)
@@ -843,7 +844,10 @@ def main(argv=None):
         import warp as wp
     except ImportError:
         sys.exit("bench_warp: needs warp-lang (a benchmark-only extra): pip install 'tai_coll[bench]'")
-    tc.init(arch=args.arch, threads=args.threads if args.arch == "cpu" else None)
+    landed = tc.init(arch=args.arch, threads=args.threads if args.arch == "cpu" else None).arch
+    if landed != args.arch:  # (Taichi falls back to the CPU where CUDA cannot start)
+        sys.exit(f"bench_warp: --arch {args.arch}: Taichi could not start it here and runs on {landed}; "
+                 f"the two sides would not share a device")
     wp.config.quiet = True
     wp.init()
     device = "cpu" if args.arch == "cpu" else "cuda:0"
