@@ -72,6 +72,8 @@ def test_a_report_is_written_whole_or_not_at_all(tmp_path):
     (bench_warp.main, ["--settle", "-10"], "--settle"),
     (pile_settle.main, ["--threads", "0"], "--threads"),
     (bench_warp.main, ["--arch", "vulkan"], "--arch"),
+    (bench_warp.main, ["--rows", "layer,beds"], "--rows"),
+    (bench_warp.main, ["--rows", ","], "--rows"),
     (bench_bodies.main, ["--arch", "gpu0"], "--arch"),
     (bench_workflow.main, ["--arch", "tpu"], "--arch"),
 ], ids=lambda v: " ".join(v) if isinstance(v, list) else None)

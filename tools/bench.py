@@ -566,7 +566,7 @@ def report_path(parser, option: str, path) -> Path:
 
 def write_json(path, report) -> Path:
     """Write a benchmark report atomically (a temporary file moved into place; removed if the
-    move fails, so that nothing half-written is left)."""
+    writing or the move fails, so that nothing half-written is left)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")

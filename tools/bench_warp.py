@@ -823,6 +823,9 @@ def main(argv=None):
     parser.add_argument("--threads", type=count(), default=2)
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
     args = parser.parse_args(argv)
+    wanted = [r for r in args.rows.split(",") if r]
+    if not wanted or set(wanted) - {"layer", "bed"}:
+        parser.error(f"--rows: choose from layer,bed; got {args.rows!r}")
     for option, steps in (("--settle", args.settle), ("--timed", args.timed)):
         if steps % SUBSTEPS:
             parser.error(f"{option}: tai_coll's bed steps frames of {SUBSTEPS} steps: give a multiple of "
@@ -853,7 +856,6 @@ def main(argv=None):
     device = "cpu" if args.arch == "cpu" else "cuda:0"
     kernels = warp_kernels(wp)
     rows = []
-    wanted = args.rows.split(",")
     settings = {"pbd": PBD, "impulse": IMPULSE, "dem": {**DEM, "density": DEM_DENSITY, **dem_parameters()},
                 "rest_speed": REST_SPEED, "list_capacity": CAPACITY}
     report = {"benchmark": "bench_warp", "machine": machine_info(args), "warp": wp.__version__,
