@@ -36,8 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+sys.path.insert(0, str(ROOT))
 
 import bench_pile  # noqa: E402
 from bench import count, init_taichi, machine_info, report_path, write_json  # noqa: E402
@@ -125,7 +126,7 @@ def main(argv=None) -> int:
                         help="the [2 of 6] lattice pile of N^3 particles instead of the benchmark pile")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
     parser.add_argument("--threads", type=count(), default=2, help="Taichi CPU threads")
-    parser.add_argument("--json", default="bench_results/pile_settle.json")
+    parser.add_argument("--json", default=str(ROOT / "bench_results" / "pile_settle.json"))
     args = parser.parse_args(argv)
     if args.particles < 1:
         parser.error("--particles must be >= 1")
