@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT / "tools"))
 sys.path.insert(0, str(ROOT))
 
 import bench_pile  # noqa: E402
-from bench import count, init_taichi, machine_info, report_path, write_json  # noqa: E402
+from bench import count, init_taichi, machine_info, report_path, seconds, write_json  # noqa: E402
 
 
 STATS = ("p50", "p99", "max")
@@ -118,22 +118,16 @@ def lattice_pile(tc, n_side: int, seed: int = 0, sleep: bool = True):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--particles", type=int, default=100_000)
-    parser.add_argument("--seconds", type=float, default=1.5, help="simulated seconds from the drop")
-    parser.add_argument("--every", type=float, default=0.25, help="simulated seconds between measurements")
+    parser.add_argument("--particles", type=count(), default=100_000)
+    parser.add_argument("--seconds", type=seconds, default=1.5, help="simulated seconds from the drop")
+    parser.add_argument("--every", type=seconds, default=0.25, help="simulated seconds between measurements")
     parser.add_argument("--variant", choices=bench_pile.VARIANTS, default="impulse")
-    parser.add_argument("--lattice", type=int, default=None, metavar="N",
+    parser.add_argument("--lattice", type=count(), default=None, metavar="N",
                         help="the [2 of 6] lattice pile of N^3 particles instead of the benchmark pile")
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda", "auto"))
     parser.add_argument("--threads", type=count(), default=2, help="Taichi CPU threads")
     parser.add_argument("--json", default=str(ROOT / "bench_results" / "pile_settle.json"))
     args = parser.parse_args(argv)
-    if args.particles < 1:
-        parser.error("--particles must be >= 1")
-    if args.seconds <= 0 or args.every <= 0:
-        parser.error("--seconds and --every must be > 0")
-    if args.lattice is not None and args.lattice < 1:
-        parser.error("--lattice must be >= 1")
     report_path(parser, "--json", args.json)
 
     import tai_coll as tc
