@@ -209,9 +209,9 @@ class ParticleCollisions:
                    wet_law=WET_LAWS["linear"])
         placed = self._place(particles)
         sleep = self._may_sleep(world)
-        now = wake_key(particles, world.colliders)
         if sleep and not (placed or self._pushing or (world.bodies is not None and world.bodies.open)) and \
-                settings.method == "gauss-seidel" and reads_pass_flags() and all_asleep(self._awake, self._slept, now):
+                settings.method == "gauss-seidel" and reads_pass_flags() and \
+                all_asleep(self._awake, self._slept, wake_key(particles, world.colliders)):
             return  # every particle sleeps and none was woken: the substep would change nothing (all_asleep)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
