@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-from . import fast_launch, frontend_cache, serial_loops
+from . import cpu_threads, fast_launch, frontend_cache, serial_loops
 
 ARCHS = ("auto", "cpu", "gpu", "cuda", "vulkan", "metal")
 PRECISIONS = ("f32", "f64")
@@ -43,6 +43,7 @@ class RuntimeInfo:
     threads: int | None
     seed: int
     generation: int
+    pinned_threads: tuple = ()  # (thread id, CPU) of each Taichi CPU worker kept on a CPU (cpu_threads)
 
     @property
     def float_dtype(self):
@@ -88,7 +89,15 @@ def _arch_name(arch) -> str:
             ti.metal: "metal", ti.opengl: "opengl"}.get(arch, str(arch))
 
 
-def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
+def _init_cpu(cpu: dict) -> tuple:
+    """ti.init on the CPU; then each worker of Taichi's pool on a CPU of its own where the
+    pool has one for every CPU (cpu_threads). Returns the pinned (thread id, CPU) pairs."""
+    before = cpu_threads.thread_ids()
+    ti.init(**cpu)
+    return cpu_threads.pin_workers(before, ti.lang.impl.current_cfg().cpu_max_num_threads)
+
+
+def _start(arch: str, precision: str, threads: int | None, seed: int) -> tuple:
     frontend_cache.install()  # Taichi's source reads and position messages, once each
     serial_loops.install()  # serial kernels for small scenes on the CPU
     fast_launch.install()  # Taichi's launch path, its walks over the arguments kept per kernel
@@ -108,8 +117,9 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
         cpu["cfg_optimization"] = False
     if threads is not None:
         cpu["cpu_max_num_threads"] = threads
+    pinned = ()
     if arch == "cpu":
-        ti.init(**cpu)
+        pinned = _init_cpu(cpu)
     elif arch == "auto":
         # A GPU when one is usable: CUDA, or Metal on a Mac. Vulkan is not tried here, since
         # on a machine without a GPU it would pick a software rasteriser (lavapipe), slower
@@ -122,11 +132,11 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> str:
         if not candidates or (_arch_name(ti.lang.impl.current_cfg().arch) == "cpu" and threads is not None):
             if candidates:
                 ti.reset()
-            ti.init(**cpu)
+            pinned = _init_cpu(cpu)
     else:
         target = {"gpu": ti.gpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}[arch]
         ti.init(arch=target, **common)
-    return _arch_name(ti.lang.impl.current_cfg().arch)
+    return _arch_name(ti.lang.impl.current_cfg().arch), pinned
 
 
 def init(arch: str = "auto", *, precision: str = "f32", threads: int | None = None,
@@ -137,7 +147,9 @@ def init(arch: str = "auto", *, precision: str = "f32", threads: int | None = No
         usable, else the CPU). A GPU arch that is not available falls back to the CPU, as
         Taichi does; `RuntimeInfo.arch` says where it landed.
     precision: "f32" (fast, the default) or "f64" (for tests and accuracy studies).
-    threads: CPU worker threads, 1 to MAX_THREADS (None: all cores). Ignored on GPUs.
+    threads: CPU worker threads, 1 to MAX_THREADS (None: all cores). Ignored on GPUs. With
+        one for every CPU the process may use, each is kept on a CPU of its own
+        (cpu_threads; `RuntimeInfo.pinned_threads`).
     seed: Taichi's random seed, 0 to MAX_SEED.
     Every argument is checked before the running Taichi is reset, so a bad call leaves it
     as it was.
@@ -150,9 +162,9 @@ def init(arch: str = "auto", *, precision: str = "f32", threads: int | None = No
     if _info is not None:
         ti.reset()
         _info = None  # the old runtime is gone even if the new one fails to start
-    actual = _start(arch, precision, threads, seed)
+    actual, pinned = _start(arch, precision, threads, seed)
     _generation += 1
-    _info = RuntimeInfo(arch, actual, precision, threads, seed, _generation)
+    _info = RuntimeInfo(arch, actual, precision, threads, seed, _generation, pinned)
     return _info
 
 
