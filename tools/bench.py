@@ -137,6 +137,10 @@ def rss_bytes() -> int:
 def machine_info(args) -> dict:
     import taichi as ti
 
+    from tai_coll import runtime
+
+    started = runtime.info()
+
     cpu = platform.processor() or ""
     try:
         with open("/proc/cpuinfo") as f:
@@ -181,6 +185,8 @@ def machine_info(args) -> dict:
         "arch_requested": args.arch,
         "gpu": gpu,
         "threads": args.threads if args.arch == "cpu" else None,
+        # the CPU each of Taichi's workers was kept on (tai_coll.cpu_threads; [] when left free)
+        "workers_pinned_to": [cpu for _, cpu in started.pinned_threads] if started else None,
     }
 
 
