@@ -89,12 +89,14 @@ def _arch_name(arch) -> str:
             ti.metal: "metal", ti.opengl: "opengl"}.get(arch, str(arch))
 
 
-def _init_cpu(cpu: dict) -> tuple:
-    """ti.init on the CPU; then each worker of Taichi's pool on a CPU of its own where the
-    pool has one for every CPU (cpu_threads). Returns the pinned (thread id, CPU) pairs."""
+def _init(**config) -> tuple:
+    """ti.init(**config); where it lands on the CPU, each worker of Taichi's pool is then kept
+    on a CPU of its own if the pool has one for every CPU (cpu_threads). Returns the pinned
+    (thread id, CPU) pairs."""
     before = cpu_threads.thread_ids()
-    ti.init(**cpu)
-    return cpu_threads.pin_workers(before, ti.lang.impl.current_cfg().cpu_max_num_threads)
+    ti.init(**config)
+    cfg = ti.lang.impl.current_cfg()
+    return cpu_threads.pin_workers(before, cfg.cpu_max_num_threads) if _arch_name(cfg.arch) == "cpu" else ()
 
 
 def _start(arch: str, precision: str, threads: int | None, seed: int) -> tuple:
@@ -119,7 +121,7 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> tuple:
         cpu["cpu_max_num_threads"] = threads
     pinned = ()
     if arch == "cpu":
-        pinned = _init_cpu(cpu)
+        pinned = _init(**cpu)
     elif arch == "auto":
         # A GPU when one is usable: CUDA, or Metal on a Mac. Vulkan is not tried here, since
         # on a machine without a GPU it would pick a software rasteriser (lavapipe), slower
@@ -128,14 +130,14 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> tuple:
         if platform.system() == "Darwin" and precision == "f32":
             candidates.append(ti.metal)
         if candidates:
-            ti.init(arch=candidates, **common)
+            pinned = _init(arch=candidates, **common)
         if not candidates or (_arch_name(ti.lang.impl.current_cfg().arch) == "cpu" and threads is not None):
             if candidates:
                 ti.reset()
-            pinned = _init_cpu(cpu)
+            pinned = _init(**cpu)
     else:
         target = {"gpu": ti.gpu, "cuda": ti.cuda, "vulkan": ti.vulkan, "metal": ti.metal}[arch]
-        ti.init(arch=target, **common)
+        pinned = _init(arch=target, **common)  # (a GPU that is not there: Taichi's CPU fallback)
     return _arch_name(ti.lang.impl.current_cfg().arch), pinned
 
 
