@@ -87,9 +87,12 @@ def test_each_worker_runs_on_a_cpu_of_its_own_when_there_is_one_for_every_cpu(tm
     assert sorted(pinned.values()) == cpus  # every CPU once
     for thread, cpu in pinned.items():
         assert report["affinity"][thread] == [cpu]
-    # the pinned threads are Taichi's pool: they, and only they among the threads ti.init
-    # started, ran the parallel loop (the others compile kernels)
-    assert sorted(pinned) == sorted(report["ran"])
+    # the pinned threads are Taichi's pool: only they, among the threads ti.init started, ran
+    # the parallel loop (the others compile kernels); on a machine of few CPUs, each of them
+    # (on many, a worker that wakes late may find the loop's share taken)
+    assert report["ran"] and set(report["ran"]) <= set(pinned)
+    if len(cpus) <= 4:
+        assert sorted(report["ran"]) == sorted(pinned)
     for thread in set(report["started"]) - set(pinned):
         assert report["affinity"][thread] == cpus
 
