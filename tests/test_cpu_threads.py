@@ -37,8 +37,11 @@ def busy():
         field[i] = x
 
 
-def ran():  # each started thread's time on a CPU so far, ns
-    return {t: int(open(f"/proc/self/task/{t}/schedstat").read().split()[0]) for t in started}
+def ran():  # each started thread's time on a CPU so far, ns (None: the kernel keeps no such count)
+    try:
+        return {t: int(open(f"/proc/self/task/{t}/schedstat").read().split()[0]) for t in started}
+    except OSError:
+        return None
 
 
 busy()
@@ -48,7 +51,7 @@ busy()
 ti.sync()
 end = ran()
 report = dict(pinned=[list(p) for p in info.pinned_threads], started=started,
-              ran=[t for t in started if end[t] > start[t]],
+              ran=None if start is None or end is None else [t for t in started if end[t] > start[t]],
               affinity={t: sorted(os.sched_getaffinity(t)) for t in started})
 if frames:
     rng = np.random.default_rng(3)
@@ -90,9 +93,10 @@ def test_each_worker_runs_on_a_cpu_of_its_own_when_there_is_one_for_every_cpu(tm
     # the pinned threads are Taichi's pool: only they, among the threads ti.init started, ran
     # the parallel loop (the others compile kernels); on a machine of few CPUs, each of them
     # (on many, a worker that wakes late may find the loop's share taken)
-    assert report["ran"] and set(report["ran"]) <= set(pinned)
-    if len(cpus) <= 4:
-        assert sorted(report["ran"]) == sorted(pinned)
+    if report["ran"] is not None:
+        assert report["ran"] and set(report["ran"]) <= set(pinned)
+        if len(cpus) <= 4:
+            assert sorted(report["ran"]) == sorted(pinned)
     for thread in set(report["started"]) - set(pinned):
         assert report["affinity"][thread] == cpus
 
