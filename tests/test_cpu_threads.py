@@ -20,11 +20,12 @@ import json, os, sys
 import numpy as np
 import taichi as ti
 import tai_coll as tc
+from tai_coll.cpu_threads import thread_ids
 
 threads, frames, out = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
-before = set(int(t) for t in os.listdir("/proc/self/task"))
+before = thread_ids()
 info = tc.init(arch="cpu", precision="f64", threads=threads, seed=0)
-started = sorted(set(int(t) for t in os.listdir("/proc/self/task")) - before)
+started = sorted(thread_ids() - before)
 field = ti.field(ti.f64, shape=1 << 20)
 
 
