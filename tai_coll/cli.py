@@ -197,10 +197,10 @@ def run(args) -> int:
     out = output_folder(args, path)
     exports = Exports(scene, out, args.formats, args.checkpoint_every, resumed=args.resume is not None)
     render = not args.no_render
-    renderer = video = None
+    renderer = writer = None
     frame_dir, video_path = output_paths(args, path)
     if render:
-        from .render import Renderer, VideoWriter, write_png
+        from .render import FrameWriter, Renderer, VideoWriter
 
         settings = render_settings(module, path)
         width, height = settings.pop("width", DEFAULT_RES[0]), settings.pop("height", DEFAULT_RES[1])
@@ -212,9 +212,13 @@ def run(args) -> int:
             raise UsageError(f"{path}: render_settings(): {error}") from None
         if frame_dir is not None:
             frame_dir.mkdir(parents=True, exist_ok=True)
+        video = None
         if video_path is not None:
             video_path.parent.mkdir(parents=True, exist_ok=True)
             video = VideoWriter(video_path, fps=fps)
+        # PNGs and video frames are written on a thread of their own while the next frame is
+        # stepped and rendered (render/behind.py); "writing" counts the time spent waiting for it
+        writer = FrameWriter(video)
 
     from tqdm import tqdm
 
@@ -237,19 +241,16 @@ def run(args) -> int:
                 image = renderer.render(scene)
                 t2 = time.perf_counter()
                 timing["render"].append(t2 - t1)
-                if frame_dir is not None:
-                    write_png(frame_dir / FRAME_PATTERN.format(k), image)  # (k: 0 for the first frame stepped)
-                if video is not None:
-                    video.write(image)
-                timing["write"] += time.perf_counter() - t2
+                png = frame_dir / FRAME_PATTERN.format(k) if frame_dir is not None else None  # (k: 0 first)
+                if png is not None or writer.video is not None:
+                    writer.write(image, png)
             bar.update(1)
-        if video is not None:
-            t0 = time.perf_counter()
-            video.close()
-            timing["write"] += time.perf_counter() - t0
+        if writer is not None:
+            writer.close()
+            timing["write"] = writer.waited
     except BaseException:
-        if video is not None:
-            video.abort()
+        if writer is not None:
+            writer.abort()
         raise
     finally:
         bar.close()

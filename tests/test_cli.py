@@ -93,6 +93,32 @@ def test_run_without_rendering_and_as_gif(tmp_path):
     assert (tmp_path / "c.gif").read_bytes()[:6] == b"GIF89a"
 
 
+@renders
+def test_a_scene_failing_mid_run_keeps_its_frames_and_leaves_no_video(tmp_path):
+    # frames are written behind the simulation (render/behind.py): those rendered before the
+    # failure are all written, and the video, unfinished, is not left behind
+    path = script(tmp_path, """
+        import tai_coll as tc
+
+        FRAMES = 6
+
+        class Failing(tc.Scene):
+            def step(self, *args, **kwargs):
+                if self.frame == 3:
+                    raise RuntimeError("the scene failed at frame 3")
+                return super().step(*args, **kwargs)
+
+        def scene():
+            s = Failing(dt=1 / 600, substeps=10)
+            s.add_collider(tc.Plane(point=(0, 0, 0), normal=(0, 1, 0)))
+            s.add_particles(positions=[[0, 0.1, 0]], radius=0.01)
+            return s
+        """)
+    out = tai_coll("run", path, "--res", "64x48", "--out", tmp_path / "out", "--arch", "cpu", "--threads", 1)
+    assert out.returncode == 1 and "the scene failed at frame 3" in out.stderr, out.stderr
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [f"frame_{k:05d}.png" for k in range(3)]
+
+
 @pytest.mark.parametrize("args, reason", [
     (["--res", "0x0"], "--res must have a width and height from 1"),
     (["--res", "wide"], "--res must be WIDTHxHEIGHT"),

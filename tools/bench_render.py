@@ -11,9 +11,12 @@ as the median over --frames frames after a warm-up frame (kernel compiles, the w
 - render: `Renderer.render()` alone (read the state, colours, GGUI draw and read-back,
   conversion to uint8), split into its parts;
 - encode: streaming the frame to ffmpeg (H.264);
-- loop: step, render and encode in turn, as `tai-coll run --no-frames` does, with the
-  step's time inside that loop, to see whether rendering slows the simulation down beyond
-  its own cost.
+- loop: step, render and encode in turn, with the step's time inside that loop, to see
+  whether rendering slows the simulation down beyond its own cost;
+- loop writing PNGs and the video: step, render, then a PNG and the video frame, written in
+  turn (as `tai-coll run` did before render/behind.py) and behind the loop by a FrameWriter
+  (as it does now), alternately twice, each the mean over its frames with the video's close
+  included.
 
 Prints a table and writes bench_results/render.json.
 """
@@ -62,7 +65,7 @@ def main(argv=None):
 
     import tai_coll as tc
     from bench import build_scene, initial_positions, machine_info
-    from tai_coll.render import Renderer, VideoWriter
+    from tai_coll.render import FrameWriter, Renderer, VideoWriter, write_png
     from tai_coll.render.renderer import to_uint8
     from tai_coll.render import window as ggui
 
@@ -125,6 +128,21 @@ def main(argv=None):
                 video.write(renderer.render(scene))
                 loop.append(time.perf_counter() - t0)
                 loop_simulate.append(t1 - t0)
+        # the loop writing PNGs and the video, in turn and behind, alternately twice (ms/frame, mean)
+        written = {"in turn": [], "behind": []}
+        for way in ("in turn", "behind") * 2:
+            t0 = time.perf_counter()
+            writer = FrameWriter(VideoWriter(Path(folder) / f"{way}.mp4", fps=60))
+            for k in range(args.frames):
+                step()
+                image, png = renderer.render(scene), Path(folder) / f"{k}.png"
+                if way == "behind":
+                    writer.write(image, png)
+                else:
+                    write_png(png, image)
+                    writer.video.write(image)
+            writer.close()
+            written[way].append(1e3 * (time.perf_counter() - t0) / args.frames)
 
     n = scene.num_particles
     rows = {
@@ -134,14 +152,16 @@ def main(argv=None):
         "encode (H.264)": median_ms(encode),
         "loop: simulate + render + encode": median_ms(loop),
         "  of which simulate": median_ms(loop_simulate),
+        "loop + PNG + H.264, written in turn": float(np.mean(written["in turn"])),
+        "loop + PNG + H.264, written behind": float(np.mean(written["behind"])),
     }
     machine = machine_info(argparse.Namespace(arch=args.arch, threads=args.threads))
     print(f"\nmachine: {machine['cpu_model']}, {machine['usable_cores']} usable cores; taichi {machine['taichi']} "
           f"on {info.arch}, {args.threads} threads; Vulkan driver: {vulkan_driver()}")
     print(f"{n:,} particles, {width}x{height}, median over {args.frames} frames\n")
-    print(f"{'per frame':<36} {'ms':>9} {'frames/s':>9}")
+    print(f"{'per frame':<38} {'ms':>9} {'frames/s':>9}")
     for name, ms in rows.items():
-        print(f"{name:<36} {ms:9.1f} {1e3 / ms:9.2f}")
+        print(f"{name:<38} {ms:9.1f} {1e3 / ms:9.2f}")
     overhead = rows["loop: simulate + render + encode"] - rows["simulate"] - rows["render"] - rows["encode (H.264)"]
     print(f"\nsimulation: {n * scene.substeps / (rows['simulate'] / 1e3) / 1e6:.2f} M particle-steps/s alone, "
           f"{n * scene.substeps / (rows['  of which simulate'] / 1e3) / 1e6:.2f} M between renders; "

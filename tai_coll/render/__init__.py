@@ -7,10 +7,14 @@
             scene.step()
             video.write(renderer.render(scene))           # (H, W, 3) uint8
 
+FrameWriter writes the frames (PNGs, a VideoWriter's) on a thread of its own, as `tai-coll run`
+does, while the next frame is stepped and rendered.
+
 Importing this package does not touch Vulkan; the first `render()` opens the process's one
 hidden GGUI window, or raises VulkanUnavailableError saying what to install.
 """
 
+from .behind import FrameWriter
 from .camera import Camera
 from .colormap import COLORMAPS, map_colors
 from .errors import RenderError, VideoError, VulkanUnavailableError
@@ -19,6 +23,6 @@ from .renderer import COLOR_ATTRIBUTES, Renderer
 from .video import VideoWriter, ffmpeg_exe
 
 __all__ = [
-    "COLORMAPS", "COLOR_ATTRIBUTES", "Camera", "RenderError", "Renderer", "VideoError", "VideoWriter",
+    "COLORMAPS", "COLOR_ATTRIBUTES", "Camera", "FrameWriter", "RenderError", "Renderer", "VideoError", "VideoWriter",
     "VulkanUnavailableError", "encode_png", "ffmpeg_exe", "map_colors", "write_png",
 ]
