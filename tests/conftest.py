@@ -171,3 +171,27 @@ def grid_of(x, radius, margin, forward=False):
     grid.build(on_device(x), on_device(radius), on_device(np.zeros(n, int)), n, 2 * radius.max() + margin, margin,
                forward=forward)
     return grid
+
+
+def bar_frames(n, width=64, height=48):
+    """n (height, width, 3) uint8 frames with a bar that grows from frame to frame (its width
+    survives video compression)."""
+    out = []
+    for k in range(n):
+        f = np.zeros((height, width, 3), dtype=np.uint8)
+        f[:, : (k + 1) * width // n] = (200, 80, 40)
+        out.append(f)
+    return out
+
+
+def bad_codec_writer():
+    """A VideoWriter whose ffmpeg command names an encoder that does not exist (ffmpeg fails)."""
+    from tai_coll.render import VideoWriter
+
+    class BadCodec(VideoWriter):
+        def command(self, width, height, output):
+            cmd = super().command(width, height, output)
+            cmd[cmd.index("libx264")] = "no_such_encoder"
+            return cmd
+
+    return BadCodec

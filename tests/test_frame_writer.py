@@ -6,17 +6,8 @@ import threading
 import numpy as np
 import pytest
 
+from conftest import bad_codec_writer, bar_frames
 from tai_coll.render import FrameWriter, RenderError, VideoError, VideoWriter
-
-
-def frames(n, width=64, height=48):
-    """Frames with a bar that grows from frame to frame (its width survives compression)."""
-    out = []
-    for k in range(n):
-        f = np.zeros((height, width, 3), dtype=np.uint8)
-        f[:, : (k + 1) * width // n] = (200, 80, 40)
-        out.append(f)
-    return out
 
 
 class HeldVideo:
@@ -46,7 +37,7 @@ class HeldVideo:
 
 def test_pngs_and_video_hold_the_frames_in_order(tmp_path):
     imageio = pytest.importorskip("imageio")
-    clip = frames(7)
+    clip = bar_frames(7)
     with FrameWriter(VideoWriter(tmp_path / "clip.mp4", fps=24)) as writer:
         for k, f in enumerate(clip):
             writer.write(f, tmp_path / f"frame_{k}.png")
@@ -64,7 +55,7 @@ def test_pngs_and_video_hold_the_frames_in_order(tmp_path):
 def test_the_caller_goes_on_while_a_frame_is_written():
     video = HeldVideo()
     writer = FrameWriter(video, depth=2)
-    clip = frames(3)
+    clip = bar_frames(3)
     for f in clip:  # the first is being written (held), two wait: no call blocks
         writer.write(f)
     assert video.entered.wait(timeout=60) and video.received == []
@@ -78,7 +69,7 @@ def test_a_failure_in_the_thread_is_raised_and_stops_the_writing(tmp_path):
     video.go.set()
     writer = FrameWriter(video, depth=1)
     with pytest.raises(VideoError, match="ffmpeg failed at frame 1"):
-        for k, f in enumerate(frames(30)):
+        for k, f in enumerate(bar_frames(30)):
             writer.write(f, tmp_path / f"frame_{k}.png")
         writer.close()
     assert len(video.received) == 1 and video.aborted and not video.closed
@@ -89,22 +80,16 @@ def test_a_failure_in_the_thread_is_raised_and_stops_the_writing(tmp_path):
 
 
 def test_ffmpeg_failing_leaves_no_video(tmp_path):
-    class BadCodec(VideoWriter):
-        def command(self, width, height, output):
-            cmd = super().command(width, height, output)
-            cmd[cmd.index("libx264")] = "no_such_encoder"
-            return cmd
-
     with pytest.raises(VideoError, match=r"exit code [1-9]\d*[\s\S]*no_such_encoder"):
-        with FrameWriter(BadCodec(tmp_path / "bad.mp4", fps=10)) as writer:
-            for f in frames(40):
+        with FrameWriter(bad_codec_writer()(tmp_path / "bad.mp4", fps=10)) as writer:
+            for f in bar_frames(40):
                 writer.write(f)
     assert not list(tmp_path.iterdir())
 
 
 def test_a_png_that_cannot_be_written_names_its_path(tmp_path):
     writer = FrameWriter()
-    writer.write(frames(1)[0], tmp_path / "missing" / "a.png")
+    writer.write(bar_frames(1)[0], tmp_path / "missing" / "a.png")
     with pytest.raises(RenderError, match=r"could not write .*missing"):
         writer.close()
 
@@ -112,7 +97,7 @@ def test_a_png_that_cannot_be_written_names_its_path(tmp_path):
 def test_abort_writes_the_pngs_queued_and_no_video(tmp_path):
     video = HeldVideo()
     writer = FrameWriter(video, depth=4)
-    for k, f in enumerate(frames(4)):
+    for k, f in enumerate(bar_frames(4)):
         writer.write(f, tmp_path / f"frame_{k}.png")
     assert video.entered.wait(timeout=60)
     video.go.set()  # (the first frame's video write goes through; the rest go to PNGs only)
@@ -120,12 +105,12 @@ def test_abort_writes_the_pngs_queued_and_no_video(tmp_path):
     assert video.aborted and not video.closed and len(video.received) <= 1
     assert sorted(p.name for p in tmp_path.iterdir()) == [f"frame_{k}.png" for k in range(4)]
     with pytest.raises(RuntimeError, match="closed"):
-        writer.write(frames(1)[0])
+        writer.write(bar_frames(1)[0])
 
 
 def test_abort_leaves_no_video_file(tmp_path):
     writer = FrameWriter(VideoWriter(tmp_path / "clip.mp4", fps=10), depth=4)
-    for f in frames(6):
+    for f in bar_frames(6):
         writer.write(f)
     writer.abort()
     assert not list(tmp_path.iterdir())  # no video, no partial file
@@ -138,7 +123,7 @@ def test_abort_ends_a_write_that_ffmpeg_does_not_read(tmp_path, monkeypatch):
     video = HeldVideo()  # its write never returns until abort ends it
     video.abort = lambda: (setattr(video, "aborted", True), video.go.set())
     writer = FrameWriter(video)
-    writer.write(frames(1)[0])
+    writer.write(bar_frames(1)[0])
     assert video.entered.wait(timeout=60)
     writer.abort()
     assert video.aborted

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import tai_coll as tc
+from conftest import bad_codec_writer, bar_frames
 from tai_coll.render import (Camera, Renderer, RenderError, VideoError, VideoWriter, VulkanUnavailableError,
                              encode_png, map_colors, write_png)
 from tai_coll.render import tessellate, window
@@ -380,19 +381,10 @@ def read_video(path):
         return [frame for frame in reader]
 
 
-def frames(n, width, height):
-    out = []
-    for k in range(n):
-        f = np.zeros((height, width, 3), dtype=np.uint8)
-        f[:, : (k + 1) * width // n] = (200, 80, 40)
-        out.append(f)
-    return out
-
-
 def test_mp4_decodes_to_the_frames_written(tmp_path):
     path = tmp_path / "clip.mp4"
     with VideoWriter(path, fps=24) as video:
-        for f in frames(7, 64, 48):
+        for f in bar_frames(7, 64, 48):
             video.write(f)
     decoded = read_video(path)
     assert len(decoded) == 7 and decoded[0].shape == (48, 64, 3)
@@ -404,12 +396,12 @@ def test_mp4_decodes_to_the_frames_written(tmp_path):
 
 def test_odd_sizes_are_padded_and_gif_is_smaller(tmp_path):
     with VideoWriter(tmp_path / "odd.mp4", fps=10) as video:
-        for f in frames(3, 65, 49):
+        for f in bar_frames(3, 65, 49):
             video.write(f)
     decoded = read_video(tmp_path / "odd.mp4")
     assert len(decoded) == 3 and decoded[0].shape == (50, 66, 3)
     with VideoWriter(tmp_path / "clip.gif", fps=10, gif_width=40) as video:
-        for f in frames(4, 80, 60):
+        for f in bar_frames(4, 80, 60):
             video.write(f)
     iio = pytest.importorskip("imageio.v3")
     gif = iio.imread(tmp_path / "clip.gif", index=None)
@@ -417,16 +409,10 @@ def test_odd_sizes_are_padded_and_gif_is_smaller(tmp_path):
 
 
 def test_ffmpeg_failure_shows_its_exit_code_and_message(tmp_path):
-    class BadCodec(VideoWriter):
-        def command(self, width, height, output):
-            cmd = super().command(width, height, output)
-            cmd[cmd.index("libx264")] = "no_such_encoder"
-            return cmd
-
     path = tmp_path / "bad.mp4"
     with pytest.raises(VideoError, match=r"exit code [1-9]\d*[\s\S]*no_such_encoder"):
-        with BadCodec(path, fps=10) as video:
-            for f in frames(40, 64, 48):
+        with bad_codec_writer()(path, fps=10) as video:
+            for f in bar_frames(40, 64, 48):
                 video.write(f)
     assert not path.exists() and not list(tmp_path.iterdir())
 
@@ -437,11 +423,11 @@ def test_video_writer_refuses_bad_input(tmp_path):
     with pytest.raises(ValueError, match="fps"):
         VideoWriter(tmp_path / "clip.mp4", fps=0)
     with pytest.raises(VideoError, match="does not exist"):
-        VideoWriter(tmp_path / "missing" / "clip.mp4").write(frames(1, 8, 8)[0])
+        VideoWriter(tmp_path / "missing" / "clip.mp4").write(bar_frames(1, 8, 8)[0])
     video = VideoWriter(tmp_path / "clip.mp4")
-    video.write(frames(1, 16, 16)[0])
+    video.write(bar_frames(1, 16, 16)[0])
     with pytest.raises(VideoError, match="16x16"):
-        video.write(frames(1, 18, 16)[0])
+        video.write(bar_frames(1, 18, 16)[0])
     assert not (tmp_path / "clip.mp4").exists()
     with pytest.raises(VideoError, match="no frames"):
         VideoWriter(tmp_path / "empty.mp4").close()

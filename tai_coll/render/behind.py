@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import validate
 from .png import check_frame, write_png
+from .video import ClosedOnExit
 
 _DONE = object()  # the queue's last item
 
@@ -36,7 +37,7 @@ _DONE = object()  # the queue's last item
 ABORT_WAIT = 5.0
 
 
-class FrameWriter:
+class FrameWriter(ClosedOnExit):
     """Writes (H, W, 3) uint8 frames in order, each to a PNG file and/or a VideoWriter, on one
     background thread. video: a VideoWriter or None; depth: frames that may wait (>= 1).
     waited: seconds the caller spent waiting on the thread (a full queue, `close`)."""
@@ -103,16 +104,6 @@ class FrameWriter:
             self._thread = None
         if self.video is not None:
             self.video.abort()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
-        return False
 
     def _raise(self):
         if self._error is not None:

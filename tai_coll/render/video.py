@@ -45,7 +45,21 @@ def ffmpeg_version() -> str:
     return imageio_ffmpeg.get_ffmpeg_version()
 
 
-class VideoWriter:
+class ClosedOnExit:
+    """As a context manager: `close()` when the block ends, `abort()` when it raises."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+        return False
+
+
+class VideoWriter(ClosedOnExit):
     """Stream (H, W, 3) uint8 frames into a video file.
 
         with VideoWriter("out/run.mp4", fps=60) as video:
@@ -118,16 +132,6 @@ class VideoWriter:
         self._partial = None
         self._cleanup()
         return self.path
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
-        return False
 
     # ------------------------------------------------------------------ ffmpeg
     def command(self, width: int, height: int, output) -> list[str]:
