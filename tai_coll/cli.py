@@ -218,7 +218,7 @@ def run(args) -> int:
             video = VideoWriter(video_path, fps=fps)
         # PNGs and video frames are written on a thread of their own while the next frame is
         # stepped and rendered (render/behind.py); "writing" counts the time spent waiting for it
-        writer = FrameWriter(video)
+        writer = FrameWriter(video) if frame_dir is not None or video is not None else None
 
     from tqdm import tqdm
 
@@ -241,9 +241,8 @@ def run(args) -> int:
                 image = renderer.render(scene)
                 t2 = time.perf_counter()
                 timing["render"].append(t2 - t1)
-                png = frame_dir / FRAME_PATTERN.format(k) if frame_dir is not None else None  # (k: 0 first)
-                if png is not None or writer.video is not None:
-                    writer.write(image, png)
+                if writer is not None:  # (k: 0 for the first frame stepped)
+                    writer.write(image, frame_dir / FRAME_PATTERN.format(k) if frame_dir is not None else None)
             bar.update(1)
         if writer is not None:
             writer.close()
