@@ -4,7 +4,8 @@ their own (docs/design-notes.md, "Frames written behind the simulation").
 Writing a 1280 x 720 frame costs about half as much as rendering it (a PNG of zlib-compressed
 rows, 4 ms, and 2.8 MB down ffmpeg's pipe, 7 ms, on the 2-core machine of docs/benchmarks.md).
 zlib and the pipe release Python's lock while they work, so a thread of its own writes frame k
-while the caller steps and renders frame k + 1, on the other core. At most `depth` frames wait, so memory stays a few frames.
+while the caller steps and renders frame k + 1, on the other core. At most `depth` frames wait,
+so memory stays a few frames.
 
     writer = FrameWriter(video)                      # video: a VideoWriter, or None
     for k in range(frames):
