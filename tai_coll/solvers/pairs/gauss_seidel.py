@@ -59,15 +59,26 @@ MAX_SLABS = 64
 UNIT_BITS = (1, 1, 1)
 
 
+#: Whether the later passes of a substep pass over quiet particles (_pass's sleep == QUIET);
+#: exact, so the tests compare both ways.
+QUIET_SKIP = True
+#: _pass's `sleep`: 0, no particle sleeps; 1, some may; QUIET, some may and the later passes
+#: pass over quiet particles.
+QUIET = 2
+
 #: Loop indices per claimer in the slab loop: Taichi 1.7 gives each CPU thread one run of at
 #: least 512 indices, so a loop of threads x CLAIM_STRIDE gives every thread one run holding
 #: one claimer, which takes slabs until none are left (see _pass).
 CLAIM_STRIDE = 512
 
-#: The slab loop's claiming (see _pass): the CPU's thread count and the next slab of each colour.
-ClaimArgs = ti.types.argpack(workers=ti.i32, next=ARRAY)
+#: The passes' scratch (see _pass), one set per runtime, shared by every scene (none of it is
+#: kept from one substep to the next, and a substep's passes run one after the other): the
+#: slab loop's claiming (the CPU's thread count, `workers`, and the next slab of each colour,
+#: `next`), and the quiet particles of QUIET (a byte a particle, `quiet`; woke[0]: a particle
+#: woke since the elastic pass began; woke[1]: the elastic pass marked some particle quiet).
+PassWork = ti.types.argpack(workers=ti.i32, next=ARRAY, quiet=ARRAY, woke=ARRAY)
 
-_claims = {}
+_work = {}  # per runtime generation: (particles the marks hold, PassWork)
 
 
 def colouring() -> dict:
@@ -76,16 +87,23 @@ def colouring() -> dict:
     return dict(slabs=MAX_SLABS if runtime.info().arch == "cpu" else 0, unit_bits=UNIT_BITS)
 
 
-def _layout() -> dict:
-    """_pass's layout arguments: colouring(), and the thread count and slab counters of the
-    running Taichi (made once per runtime: every pass launch asks)."""
+def pass_work(capacity: int):
+    """The running Taichi's PassWork, its marks for particles up to `capacity` (made once per
+    runtime and grown as needed: every pass launch asks)."""
     info = runtime.info()
-    if info.generation not in _claims:
-        _claims.clear()
-        _claims[info.generation] = ClaimArgs(
+    held = _work.get(info.generation)
+    if held is None or held[0] < capacity:
+        _work.clear()
+        held = _work[info.generation] = (capacity, PassWork(
             workers=ti.lang.impl.current_cfg().cpu_max_num_threads if info.arch == "cpu" else 1,
-            next=ti.ndarray(ti.i32, shape=2))
-    return dict(colouring(), claims=_claims[info.generation])
+            next=ti.ndarray(ti.i32, shape=2), quiet=ti.ndarray(ti.i8, shape=max(capacity, 1)),
+            woke=ti.ndarray(ti.i32, shape=2)))
+    return held[1]
+
+
+def _layout(capacity: int) -> dict:
+    """_pass's layout and scratch arguments: colouring(), and pass_work(capacity)."""
+    return dict(colouring(), work=pass_work(capacity))
 
 
 @ti.func
@@ -150,15 +168,16 @@ def _pair_shares(shock: ti.template(), particles: ti.template(), levels: ti.temp
 
 
 @ti.func
-def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(), i,
-                    lists: ti.template(), particles: ti.template(), restitution, friction, wet_friction,
-                    wet_law: ti.template(), relaxation, dt, push_distance, wake_speed, rest_speed,
-                    levels: ti.template(),
+def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(),
+                    i, lists: ti.template(), particles: ti.template(), restitution, friction,
+                    wet_friction, wet_law: ti.template(), relaxation, dt, push_distance, wake_speed, rest_speed,
+                    levels: ti.template(), work: ti.template(),
                     v_test: ti.template(), x1: ti.template(), v1: ti.template()) -> ti.i32:
     """_pass's work on particle i: its pairs of the forward lists, one after the other, each
     seeing the changes of those before it (the arguments as _pass's). Returns 1 if any pair had
     something to do, else 0."""
     found = 0
+    calm = 1  # (sleep == QUIET, elastic) every pair of i's so far was two sleeping particles
     ri = particles.radius[i]
     mi = particles.mass[i]
     xi = x1[i]
@@ -181,6 +200,7 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
             asleep_j = ti.cast(is_asleep(particles, j), ti.i32)
             if (asleep_i & asleep_j) != 0:
                 continue  # two sleeping particles: nothing to resolve, neither wakes the other
+            calm = 0
         xj = x1[j]
         reach = ri + particles.radius[j]
         touch = reach * ti.static(1.0 + SETTLE_TOUCH if mode == SETTLE else 1.0)
@@ -188,8 +208,11 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
         d2 = d.norm_sqr()
         if ti.static(sleep):
             if ti.static(mode != PROJECTION):
+                before = asleep_i | asleep_j
                 asleep_i, asleep_j = wake_pair(particles, i, j, asleep_i, asleep_j, vi, v_test[j],
                                                d, d2, reach, wake_speed)
+                if (asleep_i | asleep_j) != before:
+                    work.woke[0] = 1  # (no quiet particle is passed over after a wake: see _pass)
         if ti.static(mode == PROJECTION and not placed):
             # without a branch: every listed pair is moved, by zero where it does not overlap (x + 0
             # is x), so the processor never guesses wrong whether a pair overlaps, which it
@@ -257,6 +280,10 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
                         x1[j] = particles.x[j] + dt * vj
                         xi = particles.x[i] + dt * vi
     x1[i] = xi
+    if ti.static(sleep == QUIET and mode == ELASTIC):
+        work.quiet[i] = ti.cast(calm & asleep_i, ti.i8)
+        if (calm & asleep_i) != 0 and work.woke[1] == 0:
+            work.woke[1] = 1  # (some particle is quiet: the later passes look)
     if ti.static(mode == PROJECTION):
         v1[i] = v1[i] + moved / dt
         if ti.static(placed):
@@ -274,7 +301,7 @@ def _particle_pairs(mode: ti.template(), placed: ti.template(), sleep: ti.templa
 
 @ti.kernel
 def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shock: ti.template(),
-          slabs: ti.template(), unit_bits: ti.template(), claims: ClaimArgs, grid: GridArgs,
+          slabs: ti.template(), unit_bits: ti.template(), work: PassWork, grid: GridArgs,
           lists: ListArgs, particles: ParticleArgs,
           restitution: float, friction: float, wet_friction: float, wet_law: ti.template(), relaxation: float,
           dt: float, push_distance: float, wake_speed: float, rest_speed: float, levels: ARRAY,
@@ -300,17 +327,30 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
         the end of the substep carries approaching velocity into the next. A pair approaching
         slower than rest_speed (twice gravity's increment a substep) is a resting contact, not
         a bounce: it gets e = 0 (docs/physics.md 5.3).
-    sleep: some particles may be asleep (sleeping.py): a sleeping particle takes no part of a
-        pair's change (sleeping.shares), two sleeping ones are skipped; the velocity passes
-        (ELASTIC, CONTACT, SETTLE) wake a sleeping particle that a moving or just-woken one
-        nears (sleeping.wake_pair; wake_speed: that pass's threshold).
+    sleep: 0, no particle sleeps; 1 or QUIET, some may be asleep (sleeping.py): a sleeping
+        particle takes no part of a pair's change (sleeping.shares), two sleeping ones are
+        skipped; the velocity passes (ELASTIC, CONTACT, SETTLE) wake a sleeping particle that a
+        moving or just-woken one nears (sleeping.wake_pair; wake_speed: that pass's threshold),
+        and record it in work.woke[0]. QUIET also: the elastic pass marks in work.quiet each
+        particle that sleeps and whose listed pairs were all of two sleeping particles
+        (work.woke[1]: some is), and the later passes of the substep pass over a quiet particle
+        while no particle has woken since the elastic pass began (read as a group starts, and
+        after each particle it resolves: groups running at once share no particle, so another
+        group's wake cannot reach this group's pairs). Each of its pairs would be skipped
+        anyway, so the results are the same to the bit, and a pile that mostly sleeps is walked
+        once a substep instead of in every pass (docs/design-notes.md, "Quiet particles passed
+        over").
     shock: the lower of a pair's support levels (shock.py; levels) is immovable.
     Writes to another particle are plain read-modify-writes (v1[j] = v1[j] - ...), not
     Taichi's `-=` on a global, which is an atomic (a compare-and-swap loop for floats on the
     CPU): the groups running at once share no particle. Divisions by the pair's mass sum are
     kept off the chain of dependent pairs (1 / (m_i + m_j) depends on the masses alone)."""
     changed[0] = 0
-    claims.next[0], claims.next[1] = 0, 0
+    work.next[0], work.next[1] = 0, 0
+    if ti.static(mode == ELASTIC):
+        # (the later passes pass over quiet particles only after an elastic pass that marked some
+        # in this substep; every velocity pass records its wakes)
+        work.woke[0], work.woke[1] = 0, 0
     # groups per colour: slabs (the CPU) or units (slabs 0: GPUs)
     groups = 1 << (grid.bits.x + grid.bits.y + grid.bits.z - unit_bits[0] - unit_bits[1] - unit_bits[2] - 3)
     if ti.static(slabs):
@@ -319,17 +359,20 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
         # units: one loop index a unit. Slabs: claimed one at a time by the CPU's threads from a
         # counter (a slab's cost follows its particles; the loop holds one index in CLAIM_STRIDE
         # that claims: Taichi's CPU loops hand each thread one run of at least 512 indices)
-        for t in range(claims.workers * CLAIM_STRIDE if ti.static(slabs) else groups):
+        for t in range(work.workers * CLAIM_STRIDE if ti.static(slabs) else groups):
             u = t
             if ti.static(slabs):
                 u = groups
                 if t % CLAIM_STRIDE == 0:
-                    u = ti.atomic_add(claims.next[c], 1)
+                    u = ti.atomic_add(work.next[c], 1)
             while u < groups:
                 origin = 0
                 if ti.static(not slabs):
                     origin = unit_origin(c, u, grid.bits, unit_bits)
                 found = 0
+                skipping = 0  # whether quiet particles are passed over (sleep == QUIET)
+                if ti.static(sleep == QUIET and mode != ELASTIC):
+                    skipping = ti.cast((work.woke[0] == 0) & (work.woke[1] != 0), ti.i32)
                 for r in range(1 if ti.static(slabs) else 1 << (unit_bits[1] + unit_bits[2])):  # a unit's rows
                     begin, end = 0, 0
                     if ti.static(slabs):
@@ -337,14 +380,22 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     else:
                         begin, end = row_range(origin, r, grid.bits, grid.starts, unit_bits)
                     for slot in range(begin, end):
-                        found |= _particle_pairs(mode, placed, sleep, shock, grid.entries[slot], lists, particles,
+                        i = grid.entries[slot]
+                        if ti.static(sleep == QUIET and mode != ELASTIC):
+                            if skipping != 0 and work.quiet[i] != 0:
+                                continue
+                        found |= _particle_pairs(mode, placed, sleep, shock, i, lists, particles,
                                                  restitution, friction, wet_friction, wet_law, relaxation, dt,
-                                                 push_distance, wake_speed, rest_speed, levels, v_test, x1, v1)
+                                                 push_distance, wake_speed, rest_speed, levels, work,
+                                                 v_test, x1, v1)
+                        if ti.static(sleep == QUIET and mode != ELASTIC and mode != PROJECTION):
+                            if skipping != 0:
+                                skipping = ti.cast(work.woke[0] == 0, ti.i32)
                 if found != 0 and changed[0] == 0:
                     changed[0] = 1
                 u = groups  # (units: done)
                 if ti.static(slabs):
-                    u = ti.atomic_add(claims.next[c], 1)
+                    u = ti.atomic_add(work.next[c], 1)
 
 
 def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float,
@@ -352,18 +403,21 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
     law with e = 0) over the pairs of the forward lists; see _pass. particles: the store's
     pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
-    wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep."""
-    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=wake_speed is not None, shock=False,
-          **_layout(), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
-          push_distance=0.0, wake_speed=wake_speed or 0.0, rest_speed=0.0, levels=changed, changed=changed,
-          v_test=v_test, x1=x1, v1=v1)
+    wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep (with it,
+    the later passes pass over quiet particles: _pass's QUIET)."""
+    sleep = (QUIET if QUIET_SKIP else 1) if wake_speed is not None else 0
+    _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=sleep, shock=False,
+          **_layout(x1.shape[0]), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
+          push_distance=0.0, wake_speed=wake_speed or 0.0, rest_speed=0.0, levels=changed,
+          changed=changed, v_test=v_test, x1=x1, v1=v1)
 
 
 def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, wake_speed: float | None = None,
                 levels=None, rest_speed: float = 0.0):
     """A velocity pass at the final positions, positions unchanged; levels: support levels
     (shock.py) or None; rest_speed: m/s, slower approaches get e = 0; see _pass."""
-    _pass(mode=SETTLE, placed=False, sleep=wake_speed is not None, shock=levels is not None, **_layout(),
+    sleep = (QUIET if QUIET_SKIP and levels is None else 1) if wake_speed is not None else 0
+    _pass(mode=SETTLE, placed=False, sleep=sleep, shock=levels is not None, **_layout(x1.shape[0]),
           grid=grid, lists=lists, particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0,
           wake_speed=wake_speed or 0.0, rest_speed=rest_speed, levels=changed if levels is None else levels,
           changed=changed, v_test=v1, x1=x1, v1=v1)
@@ -374,7 +428,9 @@ def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed
     """A projection pass over the pairs of the forward lists; placed: overlap allowances are
     left, push_distance (m) of them may go this substep; sleep: some particles may sleep;
     levels: support levels (shock.py) or None; see _pass."""
-    _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, **_layout(), grid=grid,
+    sleep = (QUIET if QUIET_SKIP and not placed and levels is None else 1) if sleep else 0
+    _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, **_layout(x1.shape[0]), grid=grid,
           lists=lists, particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0,
           relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0, rest_speed=0.0,
-          levels=changed if levels is None else levels, changed=changed, v_test=v1, x1=x1, v1=v1)
+          levels=changed if levels is None else levels, changed=changed,
+          v_test=v1, x1=x1, v1=v1)
