@@ -321,5 +321,5 @@ def test_quiet_particles_passed_over_change_nothing(elastic_wakes, monkeypatch):
     for (x, v), (x_all, v_all) in zip(passed, walked):
         assert np.array_equal(x, x_all) and np.array_equal(v, v_all)
     assert any(quiet > 100 and woke == (0, 1) for quiet, woke in flags)  # passed over quiet particles
-    assert any(woke[0] == 1 for _, woke in flags)  # ... and a wake ended it within a substep
+    assert any(woke[0] == 1 for _, woke in flags)  # ... and substeps whose passes recorded a wake
     assert (np.min([x[-12:, 1] for x, _ in passed], axis=0) < 0.25).all()  # every ball came down onto the pile
