@@ -398,6 +398,13 @@ def _pass(mode: ti.template(), placed: ti.template(), sleep: ti.template(), shoc
                     u = ti.atomic_add(work.next[c], 1)
 
 
+def _sleep_mode(sleep: bool, pass_over: bool = True) -> int:
+    """_pass's `sleep`: 0 while no particle may sleep; else QUIET where the pass may pass over
+    quiet particles (QUIET_SKIP, and pass_over: not a pass with placed overlap or support
+    levels, which walks every particle), 1 otherwise."""
+    return (QUIET if QUIET_SKIP and pass_over else 1) if sleep else 0
+
+
 def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: float, dt: float,
                   changed, v_test, x1, v1, wake_speed: float | None = None):
     """An elastic pass (on v_test = v(t); law with restitution) or a contact pass (v_test = v1;
@@ -405,7 +412,7 @@ def velocity_pass(elastic: bool, particles, grid, lists, law: dict, relaxation: 
     pack; grid, lists: the sort and the lists built from it; law: restitution, friction,
     wet_friction and wet_law by name; wake_speed: m/s, None while no particle may sleep (with it,
     the later passes pass over quiet particles: _pass's QUIET)."""
-    sleep = (QUIET if QUIET_SKIP else 1) if wake_speed is not None else 0
+    sleep = _sleep_mode(wake_speed is not None)
     _pass(mode=ELASTIC if elastic else CONTACT, placed=False, sleep=sleep, shock=False,
           **_layout(x1.shape[0]), grid=grid, lists=lists, particles=particles, **law, relaxation=relaxation, dt=dt,
           push_distance=0.0, wake_speed=wake_speed or 0.0, rest_speed=0.0, levels=changed,
@@ -416,7 +423,7 @@ def settle_pass(particles, grid, lists, law: dict, dt: float, changed, x1, v1, w
                 levels=None, rest_speed: float = 0.0):
     """A velocity pass at the final positions, positions unchanged; levels: support levels
     (shock.py) or None; rest_speed: m/s, slower approaches get e = 0; see _pass."""
-    sleep = (QUIET if QUIET_SKIP and levels is None else 1) if wake_speed is not None else 0
+    sleep = _sleep_mode(wake_speed is not None, pass_over=levels is None)
     _pass(mode=SETTLE, placed=False, sleep=sleep, shock=levels is not None, **_layout(x1.shape[0]),
           grid=grid, lists=lists, particles=particles, **law, relaxation=1.0, dt=dt, push_distance=0.0,
           wake_speed=wake_speed or 0.0, rest_speed=rest_speed, levels=changed if levels is None else levels,
@@ -428,7 +435,7 @@ def projection_pass(particles, grid, lists, relaxation: float, dt: float, placed
     """A projection pass over the pairs of the forward lists; placed: overlap allowances are
     left, push_distance (m) of them may go this substep; sleep: some particles may sleep;
     levels: support levels (shock.py) or None; see _pass."""
-    sleep = (QUIET if QUIET_SKIP and not placed and levels is None else 1) if sleep else 0
+    sleep = _sleep_mode(sleep, pass_over=not placed and levels is None)
     _pass(mode=PROJECTION, placed=placed, sleep=sleep, shock=levels is not None, **_layout(x1.shape[0]), grid=grid,
           lists=lists, particles=particles, restitution=0.0, friction=0.0, wet_friction=0.0, wet_law=0,
           relaxation=relaxation, dt=dt, push_distance=push_distance, wake_speed=0.0, rest_speed=0.0,
