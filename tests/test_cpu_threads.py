@@ -38,11 +38,20 @@ def busy():
         field[i] = x
 
 
+def alive(read):  # read(t) for each started thread still running (one of ti.init's short-lived
+    found = {}      # helper threads may end at any moment, before or during the read)
+    for t in started:
+        try:
+            found[t] = read(t)
+        except (ProcessLookupError, FileNotFoundError):
+            pass
+    return found
+
+
 def ran():  # each started thread's time on a CPU so far, ns (None: the kernel keeps no such count)
-    try:
-        return {t: int(open(f"/proc/self/task/{t}/schedstat").read().split()[0]) for t in started}
-    except OSError:
+    if not os.path.exists(f"/proc/self/task/{os.getpid()}/schedstat"):
         return None
+    return alive(lambda t: int(open(f"/proc/self/task/{t}/schedstat").read().split()[0]))
 
 
 busy()
@@ -52,8 +61,8 @@ busy()
 ti.sync()
 end = ran()
 report = dict(pinned=[list(p) for p in info.pinned_threads], started=started,
-              ran=None if start is None or end is None else [t for t in started if end[t] > start[t]],
-              affinity={t: sorted(os.sched_getaffinity(t)) for t in started})
+              ran=None if start is None else [t for t in end if t in start and end[t] > start[t]],
+              affinity=alive(lambda t: sorted(os.sched_getaffinity(t))))
 if frames:
     rng = np.random.default_rng(3)
     g = np.arange(-8, 8) * 0.0105
@@ -98,7 +107,8 @@ def test_each_worker_runs_on_a_cpu_of_its_own_when_there_is_one_for_every_cpu(tm
         assert report["ran"] and set(report["ran"]) <= set(pinned)
         if len(cpus) <= 4:
             assert sorted(report["ran"]) == sorted(pinned)
-    for thread in set(report["started"]) - set(pinned):
+    # the pool's workers live on; the threads still running besides them stay free
+    for thread in set(report["affinity"]) - set(pinned):
         assert report["affinity"][thread] == cpus
 
 
@@ -110,7 +120,8 @@ def test_workers_stay_free_with_fewer_or_more_than_the_cpus_or_when_turned_off(t
     for name, threads, pin in cases:
         report, _ = _probe(tmp_path, name, threads, pin=pin)
         assert report["pinned"] == [], name
-        assert all(report["affinity"][t] == cpus for t in report["started"]), name
+        assert len(report["affinity"]) >= threads, name  # the pool's workers, at least, still run
+        assert all(cpus_of == cpus for cpus_of in report["affinity"].values()), name
 
 
 def test_pinned_workers_give_the_same_bits(tmp_path):
