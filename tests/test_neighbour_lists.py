@@ -70,6 +70,48 @@ def assert_lists_match_brute_force(grid, x, radius, margin, forward):
 
 
 @pytest.mark.parametrize("forward", [False, True])
+def test_lists_of_the_awake_hold_every_pair_with_an_awake_particle(forward):
+    # HashGrid.build's awake_only (solvers/pairs/awake_lists.py): a sleeping particle (rest < 0)
+    # lists nothing when no awake particle is within the 27 cells around it; every other particle
+    # lists as before. So every pair with an awake particle is listed, once (forward) or from
+    # both sides, and lists far from the awake ones are empty.
+    rng = np.random.default_rng(5)
+    r, margin = 0.01, 0.0025
+    g = np.arange(30) * 2.1 * r
+    x = np.stack(np.meshgrid(g, g[:6], g[:10], indexing="ij"), -1).reshape(-1, 3) + rng.uniform(-0.1 * r, 0.1 * r,
+                                                                                                    (1800, 3))
+    radius = np.full(len(x), r)
+    awake = np.zeros(len(x), bool)
+    awake[rng.choice(len(x), 12, replace=False)] = True
+    awake[(x[:, 0] < 0.1) & (x[:, 2] < 0.05)] = True  # and a corner of them
+    rest = np.where(awake, 0.01, -1.0)
+    n = len(x)
+    whole, slim = (HashGrid(), HashGrid())
+    cell = 2 * r + margin
+    whole.build(on_device(x), on_device(radius), on_device(np.zeros(n, int)), n, cell, margin, forward=forward)
+    slim.build(on_device(x), on_device(radius), on_device(np.zeros(n, int)), n, cell, margin, forward=forward,
+               awake_only=on_device(rest))
+    assert np.array_equal(whole.entries.to_numpy()[:n], slim.entries.to_numpy()[:n])  # the same sort
+    full, kept = whole.own_lists(n), slim.own_lists(n)
+    near = np.zeros(n, bool)  # an awake particle within the 27 cells around
+    cells = np.floor(x.astype(np.float32) * np.float32(1.0 / cell)).astype(int)  # (as the kernel's f32)
+    for i in np.flatnonzero(awake):
+        near |= np.abs(cells - cells[i]).max(axis=1) <= 1
+    for i in range(n):
+        if awake[i] or near[i]:
+            assert np.array_equal(kept[i], full[i]), i
+        else:
+            assert len(kept[i]) == 0, i
+    listed = {(min(i, j), max(i, j)) for i in range(n) for j in kept[i]}
+    for i in range(n):
+        for j in full[i]:
+            if awake[i] or awake[j]:
+                assert (min(i, j), max(i, j)) in listed, (i, j)
+    assert 0 < sum(map(len, kept)) < sum(map(len, full)) // 4  # most of the sleeping bed lists nothing
+    assert slim.dropped() == whole.dropped() == 0
+
+
+@pytest.mark.parametrize("forward", [False, True])
 def test_packed_lists_follow_each_other_and_overfull_ones_stay_within_their_block(forward):
     # The lists of PACKED_BLOCK particles in a row of the sorted entries lie one after the
     # other in their block's places (the CPU's layout), also where a dense cluster gives 40
@@ -121,10 +163,11 @@ def test_the_gpus_list_layout_holds_the_same_lists(forward):
     grid = grid_of(x, radius, margin, forward)
     packed = grid.own_lists(n)
     dropped = grid.dropped()
-    hash_grid._neighbours(grid=grid.args, flags=on_device(np.zeros(n, int)), n=n, inv_cell=grid.inv_cell,
-                          margin=margin, margin_radii=0.0, forward=FORWARD_SORTED if forward else FULL, local=False,
-                          block=1, lists=grid.lists, touching=grid.touching, overflow=grid.overflow,
-                          listed_any=grid.listed)
+    flags = on_device(np.zeros(n, int))
+    hash_grid._neighbours(grid=grid.args, flags=flags, n=n, inv_cell=grid.inv_cell, margin=margin, margin_radii=0.0,
+                          forward=FORWARD_SORTED if forward else FULL, local=False, block=1, awake_only=False,
+                          rest=flags, lists=grid.lists, touching=grid.touching, overflow=grid.overflow,
+                          listed_any=grid.listed, awake=grid.overflow)
     first = grid.first.to_numpy()[:n]
     slot_of = np.empty(n, int)
     slot_of[grid.entries.to_numpy()[:n]] = np.arange(n)

@@ -279,6 +279,32 @@ def test_a_sleeping_row_resumed_from_a_state_skips_as_the_saved_run_would(tmp_pa
     assert np.array_equal(resumed.velocities(), scene.velocities())
 
 
+def no_elastic_wakes(monkeypatch):
+    """Make the elastic passes wake nobody (their wake speed out of reach), so that the wakes
+    come in the later passes of a substep."""
+    from tai_coll.solvers.pairs import gauss_seidel
+
+    velocity_pass = gauss_seidel.velocity_pass
+
+    def patched(elastic, *args, wake_speed=None, **kwargs):
+        if elastic and wake_speed is not None:
+            wake_speed = 1e9
+        return velocity_pass(elastic, *args, wake_speed=wake_speed, **kwargs)
+
+    monkeypatch.setattr(gauss_seidel, "velocity_pass", patched)
+
+
+def pile_with_balls_landing():
+    """A lattice pile of 512 falling asleep, and twelve balls landing in it 1.0 to 1.7 s after
+    the drop, one after another, each waking part of it."""
+    scene, half = lattice_pile(8)
+    rng = np.random.default_rng(1)
+    xz = rng.uniform(-0.7 * half, 0.7 * half, (12, 2))
+    heights = 0.5 * 9.81 * np.linspace(1.0, 1.7, 12) ** 2
+    scene.add_particles(positions=np.column_stack([xz[:, 0], heights, xz[:, 1]]), radius=0.8 * R)
+    return scene
+
+
 @pytest.mark.parametrize("elastic_wakes", [True, False])
 def test_quiet_particles_passed_over_change_nothing(elastic_wakes, monkeypatch):
     # The later pair passes of a substep pass over a particle that sleeps with only sleeping
@@ -291,22 +317,11 @@ def test_quiet_particles_passed_over_change_nothing(elastic_wakes, monkeypatch):
     from tai_coll.solvers.pairs import gauss_seidel
 
     if not elastic_wakes:
-        velocity_pass = gauss_seidel.velocity_pass
-
-        def no_elastic_wakes(elastic, *args, wake_speed=None, **kwargs):
-            if elastic and wake_speed is not None:
-                wake_speed = 1e9
-            return velocity_pass(elastic, *args, wake_speed=wake_speed, **kwargs)
-
-        monkeypatch.setattr(gauss_seidel, "velocity_pass", no_elastic_wakes)
+        no_elastic_wakes(monkeypatch)
 
     def run(skip):
         monkeypatch.setattr(gauss_seidel, "QUIET_SKIP", skip)
-        scene, half = lattice_pile(8)
-        rng = np.random.default_rng(1)
-        xz = rng.uniform(-0.7 * half, 0.7 * half, (12, 2))
-        heights = 0.5 * 9.81 * np.linspace(1.0, 1.7, 12) ** 2  # landing 1.0 to 1.7 s after the drop
-        scene.add_particles(positions=np.column_stack([xz[:, 0], heights, xz[:, 1]]), radius=0.8 * R)
+        scene = pile_with_balls_landing()
         frames, flags = [], []
         for _ in range(110):
             scene.step()
@@ -323,3 +338,73 @@ def test_quiet_particles_passed_over_change_nothing(elastic_wakes, monkeypatch):
     assert any(quiet > 100 and woke == (0, 1) for quiet, woke in flags)  # passed over quiet particles
     assert any(woke[0] == 1 for _, woke in flags)  # ... and substeps whose passes recorded a wake
     assert (np.min([x[-12:, 1] for x, _ in passed], axis=0) < 0.25).all()  # every ball came down onto the pile
+
+
+@pytest.mark.parametrize("elastic_wakes", [True, False])
+def test_lists_of_the_awake_change_nothing(elastic_wakes, monkeypatch):
+    # After calm substeps, a sleeping particle with nothing awake near lists nothing, and a
+    # substep whose passes wake a particle is undone and run again with whole lists
+    # (solvers/pairs/awake_lists.py): the same state to the bit, every frame, as whole lists
+    # throughout, through the pile falling asleep and balls landing in it one after another.
+    # With elastic_wakes False the elastic passes wake nobody (both runs alike): the wakes come
+    # in the later passes, after the colliders' passes moved the candidates.
+    from tai_coll.solvers.pairs import awake_lists
+
+    if not elastic_wakes:
+        no_elastic_wakes(monkeypatch)
+    counts = {"awake lists": 0, "again": 0}
+    wanted, again = awake_lists.Calm.wanted, awake_lists.again
+
+    def counted_wanted(calm, may):
+        used = wanted(calm, may)
+        counts["awake lists"] += used
+        return used
+
+    def counted_again(*args):
+        counts["again"] += 1
+        return again(*args)
+
+    monkeypatch.setattr(awake_lists.Calm, "wanted", counted_wanted)
+    monkeypatch.setattr(awake_lists, "again", counted_again)
+
+    def run(on):
+        monkeypatch.setattr(awake_lists, "AWAKE_LISTS", on)
+        scene = pile_with_balls_landing()
+        frames = []
+        for _ in range(110):
+            scene.step()
+            frames.append((scene.positions(), scene.velocities()))
+        return frames, scene.particle_collisions.neighbour_overflow
+
+    (slim, dropped), seen = run(True), dict(counts)
+    (whole, dropped_whole) = run(False)
+    assert counts == seen  # (the second run never used them)
+    for (x, v), (x_all, v_all) in zip(slim, whole):
+        assert np.array_equal(x, x_all) and np.array_equal(v, v_all)
+    assert dropped == dropped_whole
+    assert seen["awake lists"] > 100 and seen["again"] >= 3, seen  # both ways taken
+    assert (np.min([x[-12:, 1] for x, _ in slim], axis=0) < 0.25).all()  # every ball came down onto the pile
+
+
+def test_undoing_a_substep_of_lists_of_the_awake_restores_what_its_passes_changed():
+    # awake_lists.undo: the particles the passes woke (rest time sleeping.WOKEN) asleep again,
+    # every position back at x(t) (where the colliders' last resort may have pushed one); the
+    # other rest times as they were
+    import taichi as ti
+
+    from tai_coll.solvers.pairs import awake_lists, sleeping
+
+    scene = tc.Scene(dt=1 / 1000)
+    x = np.column_stack([np.arange(5) * 0.1, np.full(5, 0.2), np.zeros(5)])
+    scene.add_particles(positions=x, radius=R)
+    store = scene._particles
+    x_start = ti.Vector.ndarray(3, float, shape=store.capacity)
+    x_start.from_numpy(np.resize(x, (store.capacity, 3)).astype(store.x.to_numpy().dtype))
+    scene.set_positions(x + 0.01)  # (as a push would have)
+    kind = store.rest.to_numpy().dtype
+    rest = np.array([sleeping.WOKEN, sleeping.ASLEEP, 0.0, 0.25, sleeping.WOKEN], dtype=kind)
+    store.rest.from_numpy(np.resize(rest, store.capacity))
+    awake_lists.undo(store.args, x_start)
+    assert np.array_equal(store.rest.to_numpy()[:5],
+                          np.array([sleeping.ASLEEP, sleeping.ASLEEP, 0.0, 0.25, sleeping.ASLEEP], dtype=kind))
+    assert np.array_equal(scene.positions(), x.astype(kind))

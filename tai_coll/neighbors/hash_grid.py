@@ -253,11 +253,22 @@ def neighbour_of(lists: ti.template(), i, k):
 PACKED_BLOCK = 16
 
 
+@ti.func
+def _awake_near(home: ivec3, bits: ivec3, awake: ti.template()) -> ti.i32:
+    """Whether any of the 27 buckets around cell `home` holds an awake particle (awake: a mark
+    a bucket, see _neighbours' awake_only)."""
+    near = 0
+    for c in range(27):
+        near |= ti.cast(awake[bucket_of(home + ivec3(c % 3 - 1, c // 3 % 3 - 1, c // 9 - 1), bits)], ti.i32)
+    return near
+
+
 @ti.kernel
 def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin: float, margin_radii: float,
                 forward: ti.template(), local: ti.template(), block: ti.template(),
+                awake_only: ti.template(), rest: ARRAY,
                 # outputs
-                lists: ListArgs, touching: ARRAY, overflow: ARRAY, listed_any: ARRAY):
+                lists: ListArgs, touching: ARRAY, overflow: ARRAY, listed_any: ARRAY, awake: ARRAY):
     """Each particle's neighbours within r_i + r_j + margin + margin_radii min(r_i, r_j)
     (forward: FORWARD_SORTED, only those after it in the sorted entries; FORWARD_RADIUS, only
     those larger than it or, of equal radius, after it), and how many of them touch it.
@@ -268,9 +279,18 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
     begin): the passes, which walk the particles in that order, then read their lists from
     consecutive memory instead of a row of NEIGHBOUR_CAPACITY places each, mostly empty
     (measured: docs/design-notes.md, "Packed neighbour lists"). Where they start depends on
-    the lists before them in the block alone, not on thread timing."""
+    the lists before them in the block alone, not on thread timing.
+    awake_only (compile time): a sleeping particle (rest < 0, sleeping.py) with no awake particle
+    in the 27 buckets around it lists nothing, so that the lists hold every pair with an awake
+    particle, and of the pairs of two sleeping ones only some (awake: a mark a bucket, work)."""
     listed_any[0] = 0
     total = grid.starts[grid.n_buckets]
+    if ti.static(awake_only):
+        for h in range(grid.n_buckets):
+            awake[h] = ti.cast(0, ti.i8)
+        for k in range(total):  # (threads may mark a bucket at once: with the same value)
+            if rest[grid.entries[k]] >= 0.0:
+                awake[bucket_of(cell_of(grid.sorted_xr[k].xyz, inv_cell), grid.bits)] = ti.cast(1, ti.i8)
     for b in range((total + block - 1) // block):
         base = b * block * NEIGHBOUR_CAPACITY
         # One particle per iteration, visited in bucket order (its own data and the cells
@@ -287,6 +307,9 @@ def _neighbours(grid: GridArgs, flags: ARRAY, n: ti.i32, inv_cell: float, margin
             after = slot + 1 if ti.static(forward == FORWARD_SORTED) else 0
             spans = query_spans(home, grid.bits)
             own_bucket = bucket_of(home, grid.bits)
+            if ti.static(awake_only):
+                if rest[i] < 0.0 and _awake_near(home, grid.bits, awake) == 0:
+                    spans = 0  # (asleep among sleeping particles only: no pair of it acts)
             for q in range(spans):
                 if ti.static(forward == FORWARD_SORTED):
                     # a row of buckets wholly before the particle's own holds no entry after it: no
@@ -368,6 +391,7 @@ class HashGrid:
         self.first = ti.ndarray(ti.i32, shape=self.capacity)
         self.neighbour_count = ti.ndarray(ti.i32, shape=self.capacity)
         self.touching = ti.ndarray(ti.i32, shape=self.capacity)
+        self.awake = None  # a mark a bucket for lists of the awake (see build), made when first asked for
         self._lists = None
 
     @property
@@ -388,25 +412,38 @@ class HashGrid:
     def arrays(self) -> list:
         """Every array the grid holds (for memory accounting)."""
         lists = [self.neighbours, self.first, self.neighbour_count, self.touching] if self.list_capacity else []
+        lists += [self.awake] if self.list_capacity and self.awake is not None else []
         return [self.bucket, self.rank, self.entries, self.sorted_xr, self.counts, self.starts, self.block_sums] + lists
 
     def build(self, x, radius, flags, n: int, cell_size: float, margin: float, forward: bool = False,
-              margin_radii: float = 0.0, by_radius: bool = False):
+              margin_radii: float = 0.0, by_radius: bool = False, awake_only=None):
         """Sort the first n particles (positions x, an array) into buckets and collect, for
         each, the particles closer than r_i + r_j + margin + margin_radii min(r_i, r_j) (needs
         cell_size >= 2 r_max + margin + margin_radii r_max), and how many of them touch it
         (closer than r_i + r_j) in `touching`. forward: each pair once, in the list of the one
         sorted first, or with by_radius in the list of the smaller one (of equal radii, the one
         sorted first: a large particle among many small ones then lists few, and each small one
-        lists it); `touching` then counts the listed ones."""
+        lists it); `touching` then counts the listed ones.
+        awake_only: None, or the particles' rest times (sleeping.py): a sleeping particle with
+        no awake one within the 27 cells around it lists nothing (lists of the awake: the pairs
+        of two sleeping particles are left out where nothing awake is near)."""
         self.sort(x, radius, flags, n, cell_size)
+        self.relist(flags, n, margin, forward, margin_radii, by_radius, awake_only)
+
+    def relist(self, flags, n: int, margin: float, forward: bool = False, margin_radii: float = 0.0,
+               by_radius: bool = False, awake_only=None):
+        """The neighbour lists of `build` again, from its sort (the arguments as build's)."""
         self._ensure_lists()
         self.forward = bool(forward)
         mode = (FORWARD_RADIUS if by_radius else FORWARD_SORTED) if forward else FULL
         cpu = runtime.info().arch == "cpu"
+        if awake_only is not None and self.awake is None:
+            self.awake = ti.ndarray(ti.i8, shape=self.n_buckets)
         _neighbours(grid=self.args, flags=flags, n=n, inv_cell=self.inv_cell, margin=margin,
                     margin_radii=margin_radii, forward=mode, local=cpu, block=PACKED_BLOCK if cpu else 1,
-                    lists=self.lists, touching=self.touching, overflow=self.overflow, listed_any=self.listed)
+                    awake_only=awake_only is not None, rest=flags if awake_only is None else awake_only,
+                    lists=self.lists, touching=self.touching, overflow=self.overflow, listed_any=self.listed,
+                    awake=self.overflow if awake_only is None else self.awake)
 
     def sort(self, x, radius, flags, n: int, cell_size: float):
         """The counting sort alone: buckets, their starts, the entries and the copy of positions

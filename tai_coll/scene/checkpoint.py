@@ -41,8 +41,8 @@ META_KEY = "__meta__"
 #: packs, host caches, work arrays rebuilt on demand.
 RESET = {
     "store": {"_args", "_spin_args", "_slots_host", "_spare", "_w_spare", "_largest"},
-    "pairs": {"_law", "_load_args", "_push_cap"},
-    "grid": {"_args", "_lists", "_bounds"},
+    "pairs": {"_law", "_load_args", "_push_cap", "_calm", "redo"},
+    "grid": {"_args", "_lists", "_bounds", "awake"},
     "lists": {"_args"},
     "springs": {"_packs"},
 }

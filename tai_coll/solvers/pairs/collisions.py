@@ -23,8 +23,10 @@ A substep with impulse pairs (the ImpulseSolver's, `impulse_substep`), in phases
    ends inside a collider; the result is the new state.
 The passes visit the pairs one after another over a colouring of the grid (gauss_seidel.py,
 the default) or all at once (jacobi.py). A substep after which every particle sleeps, none
-woken since, is skipped: it would change nothing (sleeping.all_asleep).
-A substep with DEM pairs (the PenaltySolver's, `dem_substep`): the pair forces at the start
+woken since, is skipped: it would change nothing (sleeping.all_asleep). After calm substeps,
+the lists leave out pairs of sleeping particles with nothing awake near, and a substep whose
+passes wake a particle is run again with whole lists (awake_lists.py).
+A substep with DEM pairs (the PenaltySolver's, `dem_substep`, in dem_substep.py): the pair forces at the start
 (dem.py), then the solver's substep against the colliders with them as loads; while overlap
 particles were placed with is left, a separation by positions after it (placement.separate).
 Both reorder the particle store by cell now and then (`reorder`). The settings are a
@@ -43,15 +45,14 @@ from ...neighbors.hash_grid import HashGrid
 from ...neighbors.verlet import VerletLists
 from ...response.laws import WET_LAWS
 from ...types import host_vector, unused
-from ..penalty import Forces, ForcesAndTorques
-from . import dem, gauss_seidel, jacobi, shock
+from . import awake_lists, gauss_seidel, jacobi, shock
+from .dem_substep import DemSubsteps
 from .overlap import overlap
 
 #: A body resting on particles held by their supports stops on them (docs/physics.md 7.2) where it meets
 #: them slower than this many times |g| dt (a resting contact closes at |g| dt a substep); faster, they share it.
 HELD_SPEED = 4.0
-from .placement import (DEM_CEILING, DEM_SHRINK, SHRINK, PushCap, cap_push_velocity, grant_allowances, separate,
-                        shrink_allowances)
+from .placement import SHRINK, PushCap, cap_push_velocity, grant_allowances, shrink_allowances
 from .predict import predict_kernel
 from .sleeping import all_asleep, update_rest, wake_key
 from .settings import PairSettings
@@ -70,7 +71,7 @@ def reads_pass_flags() -> bool:
 
 
 @runtime.bound_to_runtime
-class ParticleCollisions:
+class ParticleCollisions(DemSubsteps):
     """Particle-particle collisions of a scene (Scene.enable_particle_collisions returns it).
     Its arrays belong to the Taichi runtime it was built in: after tc.init restarts Taichi,
     its methods and counters raise a clear RuntimeError (runtime.bound_to_runtime).
@@ -101,6 +102,7 @@ class ParticleCollisions:
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._push_cap = None  # placement.PushCap: its work while allowances are left
         self._awake, self._slept = ti.ndarray(ti.i32, shape=1), None  # update_rest's (see all_asleep)
+        self._calm, self.redo = awake_lists.Calm(), None  # lists of the awake (see impulse_substep)
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -209,14 +211,54 @@ class ParticleCollisions:
                    wet_law=WET_LAWS["linear"])
         placed = self._place(particles)
         sleep = self._may_sleep(world)
-        if sleep and not (placed or self._pushing or (world.bodies is not None and world.bodies.open)) and \
-                settings.method == "gauss-seidel" and reads_pass_flags() and \
-                all_asleep(self._awake, self._slept, wake_key(particles, world.colliders)):
+        table = world.colliders
+        support = settings.method == "gauss-seidel" and any(world.gravity) and table.has_bodies
+        # (the substep's wakes are read: the all-asleep skip and the lists of the awake may apply)
+        watched = sleep and not (placed or self._pushing or (world.bodies is not None and world.bodies.open)) and \
+            settings.method == "gauss-seidel" and reads_pass_flags()
+        if watched and all_asleep(self._awake, self._slept, wake_key(particles, table)):
             return  # every particle sleeps and none was woken: the substep would change nothing (all_asleep)
+        # lists of the awake (awake_lists.py) after calm substeps, from the rest times update_rest left
+        self._calm = self._calm or awake_lists.Calm()  # (a loaded state counts anew: the same results)
+        awake_only = self._calm.wanted(watched and not (support or shock.needed(world)) and
+                                       settings.skin_length(r_max) == 0.0 and self._slept == wake_key(particles, table))
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         #    (and v(t) into v_start, x(t) into delta while particles may sleep: see 3.)
-        contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max), sleep)
+        contacts = self._predict_and_list(world, dt, settings.margin_terms(), settings.skin_length(r_max), sleep,
+                                          awake_only)
+        placed = self._pair_phases(world, solver, dt, law, contacts, placed, sleep, support)
+        if watched and self._calm.woke(self._pairs, self.capacity, awake_only) and awake_only:
+            # a pass woke a particle, whose pairs with sleeping ones the lists may lack: again, whole
+            placed = self._pair_phases(world, solver, dt, law, awake_lists.again(self, particles), placed, sleep,
+                                       support)
+        # 6. colliders last, and the new state. With rigid bodies, their substep ends first:
+        #    the particles are then kept out of them at the poses they were committed to, not
+        #    the predicted ones (docs/physics.md 7.2)
+        bodies = world.bodies if world.bodies is not None and world.bodies.open else None
+        solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=bodies is None)
+        if bodies is not None:
+            bodies.end(world, dt, in_table=True)
+            allow = math.isfinite(settings.max_push_speed)
+            pushed = solver.store_out_of_bodies(world, self.x1, self.v1, allow)
+            if pushed > 0.0:
+                bodies.take_pushes(world)
+                if allow:
+                    self._allowance_left = max(self._allowance_left, pushed)
+        if support:
+            table.set_support(None, None)
+        self._latest_counts = self._counts[0]
+        self._relax(particles, dt)
+        if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
+            update_rest(particles.args, self.delta, self.v_start, host_vector(world.gravity), dt,
+                        settings.sleep_time, settings.sleep_drift, self._awake)
+            self._slept = wake_key(particles, world.colliders)
+
+    def _pair_phases(self, world, solver, dt: float, law: dict, contacts, placed: bool, sleep: bool,
+                     support: bool) -> bool:
+        """impulse_substep's phases 3 to 5 (contacts: the array of contact counts at the
+        candidates); returns whether placed overlap is being removed."""
+        particles, settings, table = world.particles, self.settings, world.colliders
         # Gauss-Seidel passes over lists that hold no pair would change nothing: where the
         # flags are read (the CPU), the passes are skipped then (a lone particle, a sparse rain)
         self._pairs = settings.method != "gauss-seidel" or not reads_pass_flags() or self.grid.listed_any()
@@ -224,8 +266,6 @@ class ParticleCollisions:
         # A body lying on particles held by what they rest on is stopped by them in this
         # substep's collider passes (shock propagation, docs/physics.md 7.2), where it meets
         # them slower than HELD_SPEED |g| dt.
-        table = world.colliders
-        support = settings.method == "gauss-seidel" and any(world.gravity) and table.has_bodies
         if support:
             g = float(np.linalg.norm(world.gravity))
             up = -np.asarray(world.gravity) / g
@@ -280,27 +320,7 @@ class ParticleCollisions:
                 gauss_seidel.settle_pass(particles.args, self.grid.args, self.grid.lists, law, dt, self.changed,
                                          self.x1, self.v1, wake_speed=wake_speeds[1], levels=levels,
                                          rest_speed=world.rest_speed(dt))
-        # 6. colliders last, and the new state. With rigid bodies, their substep ends first:
-        #    the particles are then kept out of them at the poses they were committed to, not
-        #    the predicted ones (docs/physics.md 7.2)
-        bodies = world.bodies if world.bodies is not None and world.bodies.open else None
-        solver.resolve_candidates(world, dt, self.x1, self.v1, contact_only=True, store_state=bodies is None)
-        if bodies is not None:
-            bodies.end(world, dt, in_table=True)
-            allow = math.isfinite(settings.max_push_speed)
-            pushed = solver.store_out_of_bodies(world, self.x1, self.v1, allow)
-            if pushed > 0.0:
-                bodies.take_pushes(world)
-                if allow:
-                    self._allowance_left = max(self._allowance_left, pushed)
-        if support:
-            table.set_support(None, None)
-        self._latest_counts = self._counts[0]
-        self._relax(particles, dt)
-        if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
-            update_rest(particles.args, self.delta, self.v_start, host_vector(world.gravity), dt,
-                        settings.sleep_time, settings.sleep_drift, self._awake)
-            self._slept = wake_key(particles, world.colliders)
+        return placed
 
     def _support_levels(self, world, x):
         """The support levels (shock.py) at positions x, into self.levels."""
@@ -346,12 +366,13 @@ class ParticleCollisions:
         self._pushing = self._pushing or added
         return sleep
 
-    def _predict_and_list(self, world, dt: float, margin: tuple, skin: float, sleep: bool):
+    def _predict_and_list(self, world, dt: float, margin: tuple, skin: float, sleep: bool, awake_only=False):
         """Phases 1 and 2: the candidates, and neighbour lists of pairs within r_i + r_j + margin
         (margin: (m, radii), settings.margin_terms) + skin of each other at them, kept from
         earlier substeps while they still hold; also v(t) into v_start and, if sleep, x(t) into
         delta (in the store's order after any reordering here). Returns the array holding each
-        particle's contact count at the candidates (for the first pass)."""
+        particle's contact count at the candidates (for the first pass). awake_only: lists of the
+        awake (awake_lists.py; self.redo then holds what awake_lists.again needs)."""
         particles = world.particles
         n = particles.count
         length, radii = margin
@@ -373,9 +394,11 @@ class ParticleCollisions:
         self._reorder(particles)  # (swaps the store's arrays)
         launch["particles"] = particles.args
         predict(**launch)
-        self.grid.build(self.x1, particles.radius, particles.flags, n,
-                        (2.0 + radii) * particles.max_radius + length + skin, length + skin,
-                        forward=self.forward_lists, margin_radii=radii, by_radius=by_radius)
+        listed = dict(flags=particles.flags, n=n, margin=length + skin, forward=self.forward_lists,
+                      margin_radii=radii, by_radius=by_radius)
+        self.redo = (predict, launch, listed, self.grid.dropped()) if awake_only else None
+        self.grid.build(self.x1, particles.radius, cell_size=(2.0 + radii) * particles.max_radius + length + skin,
+                        **listed, awake_only=particles.rest if awake_only else None)
         self._sorted_key = (particles.edits, n)
         if keep:
             self.lists.mark(self.x1, particles.flags, n)
@@ -465,124 +488,6 @@ class ParticleCollisions:
         if self._allowance_left > 0.0:
             amount = SHRINK * self.settings.max_push_speed * dt
             self._allowance_left = shrink_allowances(particles.count, amount, particles.allowance, self._largest)
-
-    # ---------------------------------------------------------------- DEM pairs
-    def dem_substep(self, world, solver, dt: float):
-        """One substep with DEM pairs: their forces at the substep's start, then the solver's
-        substep (a PenaltySolver) against the colliders with those forces as loads, then while
-        allowances are left the separation of placed overlap (`_separate`)."""
-        particles = world.particles
-        self._ensure(particles.capacity)
-        settings = self.settings
-        with_springs = settings.tangential_springs
-        spinning = solver.spin
-        if with_springs:
-            self.springs.fit(particles, spinning)  # before the reordering, which moves them with the store
-        if spinning:
-            particles.enable_spin()  # (before the reordering, which moves the spins with the store)
-        loads = self._loads(spinning)
-        self._place(particles)
-        skin = settings.skin_length(particles.max_radius)
-        listed = skin > 0.0 and self._dem_lists(particles, skin)
-        if not listed:
-            if skin == 0.0:  # (with lists, the store is reordered when they are built)
-                self._reorder(particles)
-            self._sort(particles, particles.x, 2.0 * particles.max_radius)
-        kernel = dem.dem_force_kernel(runtime.info().precision, listed, with_springs, spinning)
-        kernel(particles=particles.args, candidates=self.grid.lists if listed else self.grid.args,
-               inv_cell=self.grid.inv_cell, ids=particles.ids,
-               springs=self.springs.args if with_springs else unused(),
-               spin=particles.spin_args if spinning else unused(), law=self._dem_law(solver, dt), loads=loads)
-        if with_springs:  # this substep's springs are the current ones
-            self.springs.swap()
-        solver.advance(world, dt, 1, loads=loads)
-        if self.placing:
-            self._separate(world, dt, listed)
-        self._limit_dem_overlap(world, dt, listed)
-
-    def _limit_dem_overlap(self, world, dt: float, listed: bool):
-        """DEM pairs where masses differ by more than SHOCK_MASS_RATIO under gravity (shock.py):
-        the support levels at the new positions, then Jacobi passes (shock.limit_passes) that
-        remove overlap beyond DEM_OVERLAP_LIMIT of each pair's smaller radius, the lower level
-        immovable, until none is left or SHOCK_PASSES (docs/physics.md 5.4). The pairs: the
-        force kernel's lists, or (it queried the grid) full lists of the pairs touching now."""
-        particles = world.particles
-        if not shock.needed(world):
-            return
-        if self.levels is None:
-            self.levels = ti.ndarray(ti.i32, shape=self.capacity)
-        if not listed:
-            dropped = self.grid.dropped()
-            self.grid.build(particles.x, particles.radius, particles.flags, particles.count,
-                            2.0 * particles.max_radius, 0.0)
-            self._dem_dropped += self.grid.dropped() - dropped  # (its overflow is this pass's, not the forces')
-            self.lists.invalidate()  # the Verlet lists, if any, were in the arrays just rebuilt
-        shock.support_levels(world, self.grid.lists, particles.x, self.levels, self.changed)
-        for _ in range(shock.SHOCK_PASSES // shock.PASSES_PER_LAUNCH):
-            shock.limit_passes(particles.args, world.colliders.args, world.colliders.groups, self.grid.lists,
-                               self.levels, shock.DEM_OVERLAP_LIMIT, self.contacts, self.delta, self.v1, self.changed)
-            if not self._changed():
-                break
-
-    def _separate(self, world, dt: float, listed: bool):
-        """DEM pairs, at the end of a substep while allowances are left (placement.separate):
-        overlap particles were placed with goes by positions only, at most max_push_speed * dt
-        a substep, and the allowances follow the overlap left; their ceiling comes down by
-        DEM_CEILING of that a substep (docs/physics.md 5.2.1). The separation's candidates are
-        the force kernel's (listed: the lists, else the grid sorted at the substep's start); its
-        moves go to the loads' array (delta), free once the solver's substep has applied them,
-        its changes of velocity to v1 (the impulse passes')."""
-        push_distance = self.settings.max_push_speed * dt
-        self._allowance_ceiling = max(self._allowance_ceiling - DEM_CEILING * push_distance, 0.0)
-        candidates = self.grid.lists if listed else self.grid.args
-        self._allowance_left = separate(world, candidates, self.grid.inv_cell, listed, push_distance,
-                                        DEM_SHRINK * push_distance, self._allowance_ceiling, self.contacts,
-                                        self.delta, self.v1, self._largest)
-
-    def _loads(self, spinning: bool):
-        """The pair forces (and torques, for spinning particles) as one argument pack."""
-        if spinning and self.torque is None:
-            self.torque = ti.Vector.ndarray(3, float, shape=self.capacity)
-        if self._load_args is None or self._load_args[0] != spinning:
-            pack = ForcesAndTorques(force=self.delta, torque=self.torque) if spinning else Forces(force=self.delta)
-            self._load_args = (spinning, pack)
-        return self._load_args[1]
-
-    def _dem_law(self, solver, dt: float):
-        """The DEM law's constants (dem.dem_law_type), rebuilt when dt or the solver's
-        constants change."""
-        m = self.settings.material
-        constants = solver.contact_law()
-        key = (dt, tuple(constants.values()), runtime.info().generation)
-        if self._law is None or self._law[0] != key:
-            pack = dem.dem_law_type(runtime.info().precision)(
-                dt=dt, **constants, static_friction=m.static_friction, kinetic_friction=m.friction,
-                viscous_friction=m.wet_friction, rolling_friction=m.rolling_friction,
-                tangential_ratio=self.settings.tangential_ratio)
-            self._law = (key, pack)
-        return self._law[1]
-
-    def _dem_lists(self, particles, skin: float) -> bool:
-        """The DEM kernel's Verlet lists: every pair closer than r_i + r_j + skin, built from the
-        grid (at most every REORDER_INTERVAL builds after reordering the store by it) and kept
-        until some particle has moved more than skin / 2 from where they saw it, or changed
-        status, or the store was written. Returns whether they hold every such pair: False
-        when a particle had more neighbours than the lists keep (the force kernel then queries
-        the grid, sorted anew, until the next build)."""
-        n = particles.count
-        key = (particles.edits, n, skin, particles.capacity, "dem")
-        self.lists.ensure(self.capacity)
-        if self.lists.key == key and not self.lists.moved(particles.x, particles.flags, n, skin):
-            return self.lists.complete
-        self._reorder(particles)  # (swaps the store's arrays)
-        dropped = self.grid.dropped()
-        self.grid.build(particles.x, particles.radius, particles.flags, n, 2.0 * particles.max_radius + skin, skin)
-        self._sorted_key = (particles.edits, n)
-        self.lists.mark(particles.x, particles.flags, n)
-        self.lists.built((particles.edits,) + key[1:])
-        self.lists.complete = self.grid.dropped() == dropped
-        self._dem_dropped += self.grid.dropped() - dropped  # (not missed: see neighbour_overflow)
-        return self.lists.complete
 
     # ---------------------------------------------------------------- measuring
     def overlap(self, world) -> dict:
