@@ -20,7 +20,7 @@ and positions the colliders' last resort pushed (the store's x; x(t) is kept in 
 
 A substep that woke a particle costs about two; CALM substeps in a row that woke nobody are
 asked for first, so a pile still settling, which wakes particles in most substeps, keeps whole
-lists.
+lists; and while no particle sleeps there is nothing to leave out.
 """
 
 import taichi as ti
@@ -59,7 +59,7 @@ class Calm:
 
     def wanted(self, may: bool) -> bool:
         """Whether this substep takes lists of the awake; may: the substep allows them (particles
-        may sleep and did at the end of the last substep, with nothing from outside since; Gauss-
+        may sleep, some did at the end of the last substep, nothing from outside since; Gauss-
         Seidel passes on the CPU; no placed overlap, pushes, bodies or shock propagation)."""
         if not may:
             self.substeps = 0

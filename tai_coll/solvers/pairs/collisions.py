@@ -103,6 +103,8 @@ class ParticleCollisions(DemSubsteps):
         self._push_cap = None  # placement.PushCap: its work while allowances are left
         self._awake, self._slept = ti.ndarray(ti.i32, shape=1), None  # update_rest's (see all_asleep)
         self._calm, self.redo = awake_lists.Calm(), None  # lists of the awake (see impulse_substep)
+        self._asleep = ti.ndarray(ti.i32, shape=1)  # update_rest's: whether any particle slept
+        self._asleep.fill(0)
 
     def __getattr__(self, name):
         # the settings' fields, read through this object as before it had `settings`
@@ -218,10 +220,12 @@ class ParticleCollisions(DemSubsteps):
             settings.method == "gauss-seidel" and reads_pass_flags()
         if watched and all_asleep(self._awake, self._slept, wake_key(particles, table)):
             return  # every particle sleeps and none was woken: the substep would change nothing (all_asleep)
-        # lists of the awake (awake_lists.py) after calm substeps, from the rest times update_rest left
+        # lists of the awake (awake_lists.py) after calm substeps, from the rest times update_rest left,
+        # some asleep
         self._calm = self._calm or awake_lists.Calm()  # (a loaded state counts anew: the same results)
         awake_only = self._calm.wanted(watched and not (support or shock.needed(world)) and
-                                       settings.skin_length(r_max) == 0.0 and self._slept == wake_key(particles, table))
+                                       settings.skin_length(r_max) == 0.0 and self._slept == wake_key(particles, table)
+                                       and runtime.read_small(self._asleep, 1)[0] != 0)
         # 1. predict; 2. neighbours of the candidates (Jacobi: and their contact counts, which
         #    the first pass's shares use; each pass counts them for the next, into the other array)
         #    (and v(t) into v_start, x(t) into delta while particles may sleep: see 3.)
@@ -251,7 +255,7 @@ class ParticleCollisions(DemSubsteps):
         self._relax(particles, dt)
         if sleep:  # rest times, particles falling asleep (v_start: v(t), as the elastic pass left it)
             update_rest(particles.args, self.delta, self.v_start, host_vector(world.gravity), dt,
-                        settings.sleep_time, settings.sleep_drift, self._awake)
+                        settings.sleep_time, settings.sleep_drift, self._awake, self._asleep)
             self._slept = wake_key(particles, world.colliders)
 
     def _pair_phases(self, world, solver, dt: float, law: dict, contacts, placed: bool, sleep: bool,

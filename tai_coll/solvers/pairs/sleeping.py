@@ -117,15 +117,16 @@ def wake_pair(particles: ti.template(), i, j, asleep_i, asleep_j, v_i: vec3, v_j
 @ti.kernel
 def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity: vec3, dt: float,
                 sleep_time: float, sleep_drift: float,
-                # output
-                awake: ARRAY):
+                # outputs
+                awake: ARRAY, asleep: ARRAY):
     """At the end of a substep (the new state stored; x_start, v_start: x(t) and v(t), the
     latter changed by the elastic pass only): each awake particle's rest time and anchor, and
     those that have rested for sleep_time put to sleep. A particle that was resting before
     the substep and still is keeps a velocity no faster than its displacement over the
-    substep: its stored velocity describes its motion (see the module's notes). awake[0]:
-    whether any particle is awake at the end."""
+    substep: its stored velocity describes its motion (see the module's notes). awake[0],
+    asleep[0]: whether any particle is awake, and asleep, at the end."""
     awake[0] = 0
+    asleep[0] = 0
     for i in range(particles.count):
         if particles.flags[i] == ACTIVE:
             vi = particles.v[i]
@@ -136,6 +137,8 @@ def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity
                 # sleeping particle is round-off)
                 particles.v[i] = vec3(0.0)
                 particles.x[i] = x_start[i]
+                if asleep[0] == 0:
+                    asleep[0] = 1  # (read first: one shared line, written once)
             else:
                 free = v_start[i] + dt * gravity  # its velocity had no contact acted on it
                 held = (vi - free).norm() > HELD * (free.norm() + 1.0)
@@ -157,6 +160,8 @@ def update_rest(particles: ParticleArgs, x_start: ARRAY, v_start: ARRAY, gravity
                 particles.rest[i] = rest_i
                 if rest_i >= 0.0 and awake[0] == 0:
                     awake[0] = 1  # (read first: one shared line, written once)
+                elif rest_i < 0.0 and asleep[0] == 0:
+                    asleep[0] = 1
 
 
 def wake_key(particles, colliders) -> tuple:
