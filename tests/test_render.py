@@ -20,7 +20,7 @@ import tai_coll as tc
 from conftest import bad_codec_writer, bar_frames
 from tai_coll.render import (Camera, Renderer, RenderError, VideoError, VideoWriter, VulkanUnavailableError,
                              encode_png, map_colors, write_png)
-from tai_coll.render import tessellate, window
+from tai_coll.render import draw, tessellate, window
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "scenes").glob("*.py"))
@@ -312,6 +312,67 @@ def test_colliders_are_drawn_where_they_are_this_frame(vulkan):
     r = Renderer(width=W, height=H)
     frames = [r.render(still) for _ in range(6)]
     assert all(np.array_equal(frames[0], f) for f in frames[1:])
+
+
+def test_frames_drawn_from_numpy_match_ggui_wrappers(vulkan, monkeypatch):
+    """Vertices filled by NumPy and handed to GGUI (draw.direct) give the frames Taichi's own
+    wrappers give, to the byte: particles of several radii and colours, still and moving
+    colliders, before and after a step and a growth of the particle count."""
+    if not draw.direct():
+        pytest.skip("GGUI is drawn through Taichi's wrappers here (not Taichi 1.7, or TAI_COLL_GGUI_DIRECT=0)")
+
+    def frames():
+        s = particle_scene()
+        s.add_collider(tc.Box(center=(0.0, -0.6, 0.0), half_extents=(0.6, 0.05, 0.4),
+                              rotation=tc.rotation_matrix((0, 1, 0), 0.4)))
+        s.add_collider(tc.Sphere(center=(-0.4, 0.3, 0.0), radius=0.15), velocity=(2.0, 0.0, 0.0))
+        s.add_collider(tc.Plane(point=(0.0, -0.7, 0.0), normal=(0.0, 1.0, 0.0)))
+        r = Renderer(width=W, height=H, color_by="height")
+        shots = [r.render(s)]
+        s.step()
+        shots.append(r.render(s))
+        s.add_particles(positions=[[0.3, 0.4, 0.1], [-0.3, 0.2, 0.2]], radius=0.07)
+        shots.append(r.render(s))
+        return shots
+
+    direct = frames()
+    monkeypatch.setenv("TAI_COLL_GGUI_DIRECT", "0")
+    assert not draw.direct()
+    wrapped = frames()
+    for a, b in zip(direct, wrapped):
+        assert np.array_equal(a, b)
+    assert len({a.tobytes() for a in direct}) == 3  # (the three frames differ)
+
+
+def test_ggui_vertex_arrays_layout():
+    """GGUI's vertex rows: position, normal (a particle's radius in its first place), texture
+    coordinates, RGBA; the particles' array is reused while it holds them, grown when not."""
+    rng = np.random.default_rng(3)
+    p, n, c = (rng.random((5, 3)).astype(np.float32) for _ in range(3))
+    v = draw.vertices(p, n, c)
+    assert v.shape == (5, draw.VERTEX_FLOATS) and v.dtype == np.float32
+    assert np.array_equal(v[:, 0:3], p) and np.array_equal(v[:, 3:6], n) and np.array_equal(v[:, 8:11], c)
+    assert np.all(v[:, 6:8] == 0.0) and np.all(v[:, 11] == 1.0)
+    assert draw.vertices(p, n, c, out=v) is v
+
+    class Scene:
+        def particles(self, info, *args):
+            self.info, self.args = info, args
+
+    class View:
+        scene = Scene()
+
+    if not draw.direct():
+        pytest.skip("GGUI is drawn through Taichi's wrappers here")
+    held = draw.particles(View, p, c[:, 0], n)
+    assert held.shape == (5, draw.VERTEX_FLOATS)
+    assert np.array_equal(held[:, 0:3], p) and np.array_equal(held[:, 3], c[:, 0])
+    assert np.array_equal(held[:, 8:11], n) and np.all(held[:, 11] == 1.0)
+    assert View.scene.info.shape == [5, draw.VERTEX_FLOATS] and View.scene.args[-2:] == (5, 0)
+    assert draw.particles(View, p[:3], c[:3, 0], n[:3], held) is held  # reused
+    assert View.scene.info.shape == [3, draw.VERTEX_FLOATS] and View.scene.args[-2:] == (3, 0)
+    grown = draw.particles(View, np.vstack([p, p]), np.concatenate([c[:, 0]] * 2), np.vstack([n, n]), held)
+    assert len(grown) >= 10 and View.scene.info.shape == [10, draw.VERTEX_FLOATS]
 
 
 def test_one_window_reused(vulkan):

@@ -67,6 +67,7 @@ def main(argv=None):
     from bench import build_scene, initial_positions, machine_info
     from tai_coll.render import FrameWriter, Renderer, VideoWriter, write_png
     from tai_coll.render.renderer import to_uint8
+    from tai_coll.render import draw
     from tai_coll.render import window as ggui
 
     info = tc.init(arch=args.arch, threads=args.threads if args.arch != "cuda" else None)
@@ -91,6 +92,7 @@ def main(argv=None):
     # where a frame's rendering goes
     parts = {"read state + colours": [], "ggui draw + read-back": [], "to uint8": []}
     win = ggui.open_window(width, height)
+    held = None  # the particles' vertex array (draw.particles)
     for _ in range(max(3, args.frames // 2)):
         t0 = time.perf_counter()
         x = np.ascontiguousarray(scene.positions(), dtype=np.float32)
@@ -99,9 +101,9 @@ def main(argv=None):
         t1 = time.perf_counter()
         canvas, view = renderer._set_up_view(win)
         buffers = ggui.mesh_buffers()
-        view.mesh_instance(buffers.vertices, normals=buffers.normals, per_vertex_color=buffers.colors,
-                           two_sided=True, vertex_count=buffers.count, transforms=buffers.transform)
-        view.particles(x, radius=float(r[0]), per_vertex_radius=r, per_vertex_color=c)
+        if buffers.count:
+            draw.mesh(view, buffers)
+        held = draw.particles(view, x, r, c, held)
         canvas.scene(view)
         image = win.get_image_buffer_as_numpy()
         t2 = time.perf_counter()

@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import validate
 from ..geometry.colliders import Plane
-from . import tessellate
+from . import draw, tessellate
 from .camera import Camera
 from .colormap import check_colormap, map_colors
 from .png import write_png
@@ -110,6 +110,7 @@ class Renderer:
         self._ggui_camera = None
         self._tessellations = []
         self._seen_range = None
+        self._vertices = None  # GGUI's vertex array of the particles (draw.particles), reused
 
     # ------------------------------------------------------------------ public
     def _set_up_view(self, win):
@@ -132,16 +133,13 @@ class Renderer:
         buffers = ggui.mesh_buffers()
         self._upload_colliders(scene, buffers)
         if buffers.count:
-            # mesh_instance with one identity transform, not mesh(): taichi 1.7's mesh() leaves
-            # the instance count uninitialised, and meshes then vanish from random frames.
-            view.mesh_instance(buffers.vertices, normals=buffers.normals, per_vertex_color=buffers.colors,
-                               two_sided=True, vertex_count=buffers.count, transforms=buffers.transform)
+            draw.mesh(view, buffers)
         if scene.num_particles:
             x = np.ascontiguousarray(scene.positions(), dtype=np.float32)
             # GGUI sizes a particle by the window's width where its projection uses the
             # height (taichi 1.7): scale by height / width so it shows its true radius.
             r = np.ascontiguousarray(scene.radii() * (self.height / self.width), dtype=np.float32)
-            view.particles(x, radius=float(r[0]), per_vertex_radius=r, per_vertex_color=self._particle_colors(scene))
+            self._vertices = draw.particles(view, x, r, self._particle_colors(scene), self._vertices)
         canvas.scene(view)
         image = win.get_image_buffer_as_numpy()  # (W, H, 4) float32, x-major, y up
         self.frames_rendered += 1

@@ -1,4 +1,4 @@
-"""The one offscreen GGUI window of the process, and the Taichi fields its meshes are drawn from.
+"""The one offscreen GGUI window of the process, and the triangles its meshes are drawn from.
 
 GGUI renders with Vulkan. Nothing here runs until the first frame is rendered, so importing
 tai_coll (and tai_coll.render) and running the physics never touch Vulkan. The window is
@@ -17,6 +17,7 @@ import numpy as np
 import taichi as ti
 
 from .. import runtime
+from . import draw
 from .errors import VULKAN_HINT, VulkanUnavailableError
 
 _window = None      # ti.ui.Window
@@ -79,46 +80,51 @@ atexit.register(close_window)
 
 
 class MeshBuffers:
-    """f32 fields holding every collider triangle of a frame: positions, normals, colours,
-    and the one identity instance transform they are drawn with.
+    """Every collider triangle of a frame, as GGUI draws them: `vbo`, GGUI's vertex array of
+    their corners (positions, normals, colours: draw.vertices), `count` corners, and
+    `transform`, the one identity instance transform they are drawn with. NumPy arrays, handed
+    to GGUI by draw.mesh; Taichi fields of them (`fields`) only where GGUI's own wrappers draw."""
 
-    GGUI draws meshes from Taichi fields. They are allocated once, grown by doubling when a
-    frame needs more (a new field costs a kernel compile, so never per frame)."""
-
-    def __init__(self, capacity: int = 1 << 15):
-        self.capacity = 0
-        self._tree = None
-        self._allocate(capacity)
-
-    def _allocate(self, capacity: int):
-        if self._tree is not None:
-            self._tree.destroy()
-        builder = ti.FieldsBuilder()
-        self.vertices = ti.Vector.field(3, ti.f32)
-        self.normals = ti.Vector.field(3, ti.f32)
-        self.colors = ti.Vector.field(3, ti.f32)
-        self.transform = ti.Matrix.field(4, 4, ti.f32)
-        builder.dense(ti.i, capacity).place(self.vertices, self.normals, self.colors)
-        builder.dense(ti.i, 1).place(self.transform)
-        self._tree = builder.finalize()
-        self.transform.from_numpy(np.eye(4, dtype=np.float32)[None])
-        self._staging = np.zeros((capacity, 3), dtype=np.float32)
-        self.capacity = capacity
+    def __init__(self):
         self.count = 0
         self.owner = None
+        self.vbo = np.zeros((0, draw.VERTEX_FLOATS), dtype=np.float32)
+        self.transform = np.eye(4, dtype=np.float32)[None]
+        self._corners = None  # (positions, normals, colours) of the last upload, for fields()
+        self._fields = None  # (capacity, vertices, normals, colours, transform, tree, what they hold)
 
     def upload(self, vertices: np.ndarray, normals: np.ndarray, colors: np.ndarray, owner=None):
-        """Copy n triangle corners in; `owner` tags the content so a renderer can tell
-        whether its geometry is still there."""
-        n = len(vertices)
-        if n > self.capacity:
-            self._allocate(max(n, 2 * self.capacity))
-        for field, values in ((self.vertices, vertices), (self.normals, normals), (self.colors, colors)):
-            self._staging[:n] = values
-            self._staging[n:] = 0.0
-            field.from_numpy(self._staging)
-        self.count = n
+        """Take n triangle corners; `owner` tags the content so a renderer can tell whether its
+        geometry is still there."""
+        self.vbo = draw.vertices(vertices, normals, colors, out=self.vbo)
+        self._corners = (vertices, normals, colors)
+        self.count = len(vertices)
         self.owner = owner
+
+    def fields(self):
+        """(vertices, normals, colours, transform) as f32 Taichi fields, for GGUI's own
+        mesh_instance (draw.direct() False). Allocated on first use and grown by doubling (a
+        new field costs a kernel compile, so never per frame); refilled after an upload."""
+        n = self.count
+        held = self._fields
+        if held is None or held[0] < n:
+            capacity = max(n, 2 * (0 if held is None else held[0]), 1 << 15)
+            if held is not None:
+                held[5].destroy()
+            builder = ti.FieldsBuilder()
+            made = [ti.Vector.field(3, ti.f32) for _ in range(3)] + [ti.Matrix.field(4, 4, ti.f32)]
+            builder.dense(ti.i, capacity).place(*made[:3])
+            builder.dense(ti.i, 1).place(made[3])
+            tree = builder.finalize()
+            made[3].from_numpy(self.transform)
+            held = self._fields = [capacity, *made, tree, None]
+        if held[6] is not self._corners:
+            staging = np.zeros((held[0], 3), dtype=np.float32)
+            for field, values in zip(held[1:4], self._corners or ((), (), ())):
+                staging[:n] = values
+                field.from_numpy(staging)
+            held[6] = self._corners
+        return tuple(held[1:5])
 
 
 def mesh_buffers() -> MeshBuffers:
