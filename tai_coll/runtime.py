@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-from . import cpu_threads, fast_launch, frontend_cache, serial_loops
+from . import cpu_threads, fast_launch, frontend_cache, host_arrays, serial_loops
 
 ARCHS = ("auto", "cpu", "gpu", "cuda", "vulkan", "metal")
 PRECISIONS = ("f32", "f64")
@@ -103,6 +103,7 @@ def _start(arch: str, precision: str, threads: int | None, seed: int) -> tuple:
     frontend_cache.install()  # Taichi's source reads and position messages, once each
     serial_loops.install()  # serial kernels for small scenes on the CPU
     fast_launch.install()  # Taichi's launch path, its walks over the arguments kept per kernel
+    host_arrays.install()  # CPU arrays copied to and from NumPy through their memory, not kernels
     fp = ti.f64 if precision == "f64" else ti.f32
     # Taichi's offline cache of compiled kernels holds 100 MiB by default, fewer than a scene
     # with every kind of collider, pairs and bodies compiles: past it, it evicts and recompiles

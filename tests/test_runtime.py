@@ -327,3 +327,79 @@ def test_small_reads_give_what_to_numpy_gives():
     vectors = ti.Vector.ndarray(3, ti.f64, shape=2)  # (not scalars: read by to_numpy)
     vectors.from_numpy(np.arange(6.0).reshape(2, 3))
     assert np.array_equal(runtime.read_small(vectors), np.arange(6.0))
+
+
+def _through_taichi(name, array, *args):
+    """Ndarray method `name` as Taichi's own (host_arrays.TAICHIS) applied to `array`."""
+    from tai_coll import host_arrays
+
+    return host_arrays.TAICHIS[name](array, *args)
+
+
+def test_host_copies_give_what_taichis_kernels_give():
+    # tai_coll/host_arrays.py: on the CPU, to_numpy, from_numpy and fill go through the array's
+    # memory, not Taichi's kernels; the same values, casts (rounding from f64 to f32, truncation
+    # from float to integer, wrapping between integers), shapes and dtypes, and Taichi's errors
+    from tai_coll import host_arrays
+
+    if not host_arrays.install():
+        pytest.skip("Taichi's own copies here (not Taichi 1.7, or TAI_COLL_HOST_ARRAYS=0)")
+    if runtime.info().arch != "cpu":
+        pytest.skip("host copies are the CPU's")
+    rng = np.random.default_rng(7)
+    cases = [(lambda: ti.ndarray(ti.f32, shape=(5, 4)), rng.normal(size=(5, 4)) * 1e3),
+             (lambda: ti.ndarray(ti.i32, shape=7), np.array([1.9, -1.9, 2.5, 3e9, -3e9, 0.0, 7.0])),
+             (lambda: ti.ndarray(ti.i8, shape=5), np.array([1, 127, 128, -129, 300], dtype=np.int64)),
+             (lambda: ti.ndarray(ti.u8, shape=3), np.array([True, False, True])),
+             (lambda: ti.Vector.ndarray(3, ti.f32, shape=6), rng.normal(size=(6, 3))),
+             (lambda: ti.Vector.ndarray(3, ti.f64, shape=(2, 3)), rng.normal(size=(2, 3, 3))),
+             (lambda: ti.Matrix.ndarray(2, 3, ti.f32, shape=4), rng.normal(size=(4, 2, 3)).astype(np.float32)),
+             (lambda: ti.Vector.ndarray(3, ti.i32, shape=4), rng.integers(-9, 9, size=(4, 3))[:, ::-1])]
+    for make, values in cases:
+        if values.dtype.kind == "f" and make().dtype in (ti.i32, ti.i8, ti.u8):
+            values = values[np.abs(values) < 2**31]  # (C leaves float-to-integer overflow undefined)
+        ours, theirs = make(), make()
+        if values.shape != tuple(ours.arr.total_shape()):
+            ours, theirs = ti.ndarray(ours.dtype, shape=len(values)), ti.ndarray(theirs.dtype, shape=len(values))
+        matrix = bool(ours.arr.element_shape())
+        ours.from_numpy(values)
+        if matrix:
+            _through_taichi("_ndarray_matrix_from_numpy", theirs, values, len(ours.arr.element_shape()) == 1)
+            expected = _through_taichi("_ndarray_matrix_to_numpy", theirs, len(ours.arr.element_shape()) == 1)
+        else:
+            _through_taichi("_ndarray_from_numpy", theirs, values)
+            expected = _through_taichi("_ndarray_to_numpy", theirs)
+        got = ours.to_numpy()
+        assert got.dtype == expected.dtype and got.shape == expected.shape and np.array_equal(got, expected)
+        got[...] = 0  # (a copy: the array keeps its values)
+        assert np.array_equal(ours.to_numpy(), expected)
+        for value in (3, 0.75, True, -2):
+            try:
+                _through_taichi("fill", theirs, value)
+            except TypeError:  # (Taichi's f32/i32/u32 fill takes its own kind of value only)
+                with pytest.raises(TypeError):
+                    ours.fill(value)
+                continue
+            ours.fill(value)
+            assert np.array_equal(ours.to_numpy(), theirs.to_numpy())
+    array = ti.ndarray(ti.f32, shape=3)
+    with pytest.raises(ValueError, match="Mismatch shape"):
+        array.from_numpy(np.zeros(4))
+    with pytest.raises(TypeError):
+        array.from_numpy([1.0, 2.0, 3.0])
+
+
+def test_kernels_see_host_writes_and_host_reads_see_kernels():
+    @ti.kernel
+    def bump(a: ti.types.ndarray(dtype=ti.types.vector(3, ti.f32), ndim=1), s: ti.types.ndarray(dtype=ti.i32, ndim=1)):
+        for i in range(a.shape[0]):
+            a[i] += 1.0
+            s[i] *= 2
+
+    vectors = ti.Vector.ndarray(3, ti.f32, shape=4)
+    scalars = ti.ndarray(ti.i32, shape=4)
+    vectors.from_numpy(np.arange(12.0).reshape(4, 3))
+    scalars.fill(5)
+    bump(vectors, scalars)
+    assert np.array_equal(vectors.to_numpy(), np.arange(12.0).reshape(4, 3) + 1.0)
+    assert np.array_equal(scalars.to_numpy(), np.full(4, 10))
