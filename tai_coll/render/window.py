@@ -128,7 +128,7 @@ class MeshBuffers:
 
 
 def mesh_buffers() -> MeshBuffers:
-    """The process's mesh fields, made for the current Taichi runtime."""
+    """The process's MeshBuffers, made for the current Taichi runtime."""
     global _meshes
     generation = runtime.ensure_init().generation
     if _meshes is None or _meshes[0] != generation:
