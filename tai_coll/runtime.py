@@ -12,7 +12,6 @@ from __future__ import annotations
 import ctypes
 import functools
 import inspect
-import math
 import numbers
 import os
 import platform
@@ -187,32 +186,18 @@ def float_dtype():
 
 
 def read_small(array, count: int | None = None) -> np.ndarray:
-    """A NumPy copy of the first `count` entries (None: all) of a Taichi array of scalars,
-    for the host's small reads between kernels (a flag, a bound, a largest value).
+    """A NumPy copy of the first `count` entries (None: all) of a Taichi array, flattened, for
+    the host's small reads between kernels (a flag, a bound, a largest value).
 
-    On the CPU it is copied straight from the array's memory, about 11 us a read on the EPYC
-    of docs/benchmarks.md, where Taichi's own `to_numpy` launches a copy kernel (0.1 to
-    0.25 ms) and its host accessor takes about 20 us for one entry (docs/design-notes.md,
-    "Where the suite's time goes, small reads, empty lists"). Elsewhere, and for arrays of
-    vectors, it is `to_numpy`."""
-    place = array.__dict__.get("_tc_place")  # (address, dtype): fixed for the array's life
-    if place is None:
-        place = False
-        if ensure_init().arch == "cpu" and not array.arr.element_shape():
-            from taichi.lang import impl
-            from taichi.lang.util import to_numpy_type
-
-            place = (impl.get_runtime().prog.get_ndarray_data_ptr_as_int(array.arr),
-                     np.dtype(to_numpy_type(array.dtype)))
-        array._tc_place = place
-    found = None if place else array.to_numpy().reshape(-1)  # (vectors: their entries, flattened)
-    size = math.prod(array.shape) if place else found.size
-    count = size if count is None else max(0, min(int(count), size))
-    if not place:
-        return found[:count].copy()
-    address, dtype = place
-    ti.sync()  # (as Taichi's own reads do, though a CPU launch returns once its kernel has run)
-    return np.frombuffer(ctypes.string_at(address, count * dtype.itemsize), dtype=dtype).copy()
+    On the CPU it is copied straight from the array's memory (host_arrays.memory), about 11 us
+    a read on the EPYC of docs/benchmarks.md, where Taichi's own `to_numpy` launches a copy
+    kernel (0.1 to 0.25 ms) and its host accessor takes about 20 us for one entry
+    (docs/design-notes.md, "Where the suite's time goes, small reads, empty lists"). Elsewhere
+    it is `to_numpy`."""
+    view = host_arrays.memory(array)
+    found = (array.to_numpy() if view is None else view).reshape(-1)
+    count = found.size if count is None else max(0, min(int(count), found.size))
+    return found[:count].copy()
 
 
 def check_generation(generation: int, what: str = "this object") -> None:
