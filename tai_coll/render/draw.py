@@ -21,7 +21,7 @@ from ..frontend_cache import may_patch
 #: float32 values a vertex of GGUI's arrays: position 3, normal 3 (a particle's radius in the
 #: first), texture coordinates 2, colour 4 (RGB, alpha)
 VERTEX_FLOATS = 12
-_COLOR = slice(8, 11)
+COLOR = slice(8, 11)  # (the RGB part of a vertex's colour)
 _ALPHA = 11
 _RADIUS = 3
 
@@ -52,7 +52,7 @@ def vertices(positions: np.ndarray, normals: np.ndarray, colors: np.ndarray, out
         out = np.zeros((n, VERTEX_FLOATS), dtype=np.float32)
     out[:, 0:3] = positions
     out[:, 3:6] = normals
-    out[:, _COLOR] = colors
+    out[:, COLOR] = colors
     out[:, _ALPHA] = 1.0
     return out
 
@@ -70,7 +70,7 @@ def particles(view, x: np.ndarray, radii: np.ndarray, colors: np.ndarray, held: 
     array = held[:n]  # (a contiguous view: rows of a C-ordered array)
     array[:, 0:3] = x
     array[:, _RADIUS] = radii
-    array[:, _COLOR] = colors
+    array[:, COLOR] = colors
     array[:, _ALPHA] = 1.0
     # Taichi 1.7's SceneV2.particles, after its copies: (vertices, colour per vertex, radius per
     # vertex, colour, radius, index count, index offset)

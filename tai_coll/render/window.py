@@ -90,41 +90,41 @@ class MeshBuffers:
         self.owner = None
         self.vbo = np.zeros((0, draw.VERTEX_FLOATS), dtype=np.float32)
         self.transform = np.eye(4, dtype=np.float32)[None]
-        self._corners = None  # (positions, normals, colours) of the last upload, for fields()
-        self._fields = None  # (capacity, vertices, normals, colours, transform, tree, what they hold)
+        self._uploads = 0  # uploads so far (fields() refills after one)
+        self._fields = None  # (capacity, [vertices, normals, colours, transform], tree, uploads they hold)
 
     def upload(self, vertices: np.ndarray, normals: np.ndarray, colors: np.ndarray, owner=None):
         """Take n triangle corners; `owner` tags the content so a renderer can tell whether its
         geometry is still there."""
         self.vbo = draw.vertices(vertices, normals, colors, out=self.vbo)
-        self._corners = (vertices, normals, colors)
         self.count = len(vertices)
         self.owner = owner
+        self._uploads += 1
 
     def fields(self):
         """(vertices, normals, colours, transform) as f32 Taichi fields, for GGUI's own
-        mesh_instance (draw.direct() False). Allocated on first use and grown by doubling (a
-        new field costs a kernel compile, so never per frame); refilled after an upload."""
+        mesh_instance (draw.direct() False), filled from `vbo`. Allocated on first use and grown
+        by doubling (a new field costs a kernel compile, so never per frame)."""
         n = self.count
-        held = self._fields
-        if held is None or held[0] < n:
-            capacity = max(n, 2 * (0 if held is None else held[0]), 1 << 15)
-            if held is not None:
-                held[5].destroy()
+        if self._fields is None or self._fields[0] < n:
+            capacity = max(n, 2 * (0 if self._fields is None else self._fields[0]), 1 << 15)
+            if self._fields is not None:
+                self._fields[2].destroy()
             builder = ti.FieldsBuilder()
             made = [ti.Vector.field(3, ti.f32) for _ in range(3)] + [ti.Matrix.field(4, 4, ti.f32)]
             builder.dense(ti.i, capacity).place(*made[:3])
             builder.dense(ti.i, 1).place(made[3])
             tree = builder.finalize()
             made[3].from_numpy(self.transform)
-            held = self._fields = [capacity, *made, tree, None]
-        if held[6] is not self._corners:
-            staging = np.zeros((held[0], 3), dtype=np.float32)
-            for field, values in zip(held[1:4], self._corners or ((), (), ())):
-                staging[:n] = values
+            self._fields = (capacity, made, tree, None)
+        capacity, made, tree, filled = self._fields
+        if filled != self._uploads:
+            staging = np.zeros((capacity, 3), dtype=np.float32)
+            for field, columns in zip(made, (slice(0, 3), slice(3, 6), draw.COLOR)):
+                staging[:n] = self.vbo[:n, columns]
                 field.from_numpy(staging)
-            held[6] = self._corners
-        return tuple(held[1:5])
+            self._fields = (capacity, made, tree, self._uploads)
+        return tuple(made)
 
 
 def mesh_buffers() -> MeshBuffers:
