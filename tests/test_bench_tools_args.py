@@ -78,6 +78,9 @@ def test_a_report_is_written_whole_or_not_at_all(tmp_path):
     (bench_warp.main, ["--arch", "vulkan"], "--arch"),
     (bench_warp.main, ["--rows", "layer,beds"], "--rows"),
     (bench_warp.main, ["--rows", ","], "--rows"),
+    (bench_warp.main, ["--memory-gb", "0"], "--memory-gb"),
+    (bench_warp.main, ["--memory-gb", "inf"], "--memory-gb"),
+    (bench_warp.main, ["--memory-gb", "lots"], "--memory-gb"),
     (bench_bodies.main, ["--arch", "gpu0"], "--arch"),
     (bench_workflow.main, ["--arch", "tpu"], "--arch"),
 ], ids=lambda v: " ".join(v) if isinstance(v, list) else None)

@@ -46,3 +46,21 @@ def test_a_single_run_is_reported_as_it_was():
     run = layer(1.63)
     row, = median_rows([run])
     assert {k: row[k] for k in run} == run and row["runs"] == [1.63] and row["ratio_range"] == [1.63, 1.63]
+
+
+def test_the_largest_scene_in_memory_is_bounded_by_bytes_and_by_what_32_bit_offsets_index():
+    from tai_coll.neighbors.hash_grid import MAX_LISTED
+    from tai_coll.scene.particles import MAX_STORED
+    from tools.bench_warp import largest_scene
+
+    layer_fit = largest_scene(88.0, 80.0, pairs=False)  # 80 GB at 88 B: 909,090,909 particles by memory,
+    assert layer_fit["particles"] == MAX_STORED == 357_913_941  # more than the particle arrays can index
+    assert layer_fit["by_memory"] == 909_090_909 and "particle arrays" in layer_fit["limit"]
+    assert largest_scene(88.0, 20.0, pairs=False) == {"particles": 227_272_727, "limit": "memory",
+                                                      "by_memory": 227_272_727, "memory_gb": 20.0}
+    bed_fit = largest_scene(484.0, 80.0, pairs=True)  # 165M by memory, more than the lists can index
+    assert bed_fit["particles"] == MAX_LISTED == 44_739_242
+    assert bed_fit["by_memory"] == 165_289_256 and "offsets" in bed_fit["limit"]
+    small = largest_scene(484.0, 8.0, pairs=True)  # 8 GB: memory is the limit again
+    assert small["particles"] == 16_528_925 and small["limit"] == "memory"
+    assert small["particles"] * 484.0 <= 8e9 < (small["particles"] + 1) * 484.0

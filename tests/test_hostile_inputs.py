@@ -421,3 +421,43 @@ def test_particle_collisions_refuse_more_particles_than_their_lists_can_index(mo
     scene.add_particles(positions=lattice[60:100] + 1.0, radius=0.005)  # up to the limit
     scene.step(1)
     assert scene.num_particles == 100 and np.all(np.isfinite(scene.positions()))
+
+
+def test_a_scene_refuses_more_particles_than_its_arrays_can_index(monkeypatch):
+    # Taichi 1.7's 32-bit offsets count the scalars of vector elements (a 6-vector array's element
+    # 357,913,941 lies past 2**31 - 1: on the CPU it crashed, measured). The widest arrays a
+    # particle has (the kept plane, the bodies' ledger of two 3-vectors) fix the store's limit:
+    # every per-particle array of a scene with a body, an emitter and spin stays within it.
+    from tai_coll.scene import particles as store_module
+
+    limit = store_module.MAX_STORED
+    assert limit * store_module.SEPARATION_SIZE <= 2**31 - 1 < (limit + 1) * store_module.SEPARATION_SIZE
+    wide = tc.Scene()
+    wide.add_collider(tc.Plane())
+    wide.add_body(tc.Box(half_extents=(0.05, 0.05, 0.05), center=(0, 0.2, 0)), density=500.0)
+    wide.add_emitter(tc.Box(half_extents=(0.05, 0.01, 0.05), center=(0, 0.5, 0)), rate=2000.0, radius=0.004)
+    wide.add_particles(positions=np.random.default_rng(0).uniform(0.1, 0.3, (50, 3)), radius=0.004)
+    wide.step(2)
+    store = wide._particles
+    store.enable_spin()  # (the angular velocities, and their second set)
+    held = store.arrays() + wide._bodies.coupling.arrays()
+    assert len(store.arrays()) > len(store_module.STORED) and wide._bodies.coupling.arrays()
+    for array in held:
+        values = array.to_numpy()
+        assert values.size <= store_module.SEPARATION_SIZE * store.capacity, (array.shape, values.shape)
+
+    # shown with the limit lowered to 3,000 (the real one needs tens of GB): the store's growth
+    # stops at the limit, and an addition past it is refused before anything is stored
+    monkeypatch.setattr(store_module, "MAX_STORED", 3000)
+    scene = tc.Scene()
+    scene.add_particles(positions=np.random.default_rng(1).uniform(0, 1, (2000, 3)), radius=0.001)
+    assert scene._particles.capacity == 2048
+    scene.add_particles(positions=np.random.default_rng(2).uniform(0, 1, (900, 3)), radius=0.001)
+    assert scene._particles.capacity == 3000 and scene.num_particles == 2900
+    with pytest.raises(ValueError, match=r"^positions: a scene holds at most 3,000 particles .* has 2,900, "
+                                         r"and 101 more would pass it"):
+        scene.add_particles(positions=np.zeros((101, 3)), radius=0.001)
+    assert scene.num_particles == 2900 and scene._particles.capacity == 3000
+    scene.add_particles(positions=np.random.default_rng(3).uniform(0, 1, (100, 3)), radius=0.001)
+    scene.step(1)
+    assert scene.num_particles == 3000 and np.all(np.isfinite(scene.positions()))

@@ -46,7 +46,10 @@ Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second)
   time; and it cleared a 128^3 grid (16 MB) every build.
 Warp's CPU backend runs one thread; tai_coll runs --threads (default 2). On a GPU each side's
 timed steps end with a synchronize (Taichi's ti.sync, Warp's synchronize_device). tai_coll's
-rows also give the bytes a particle of every array its scene holds (Scene.state_nbytes).
+rows also give the bytes a particle of every array its scene holds (Scene.state_nbytes), and the
+largest scene of the row that fits in --memory-gb (default 80, a GPU's): by those bytes, or by
+the count Taichi's 32-bit array offsets allow (the particle arrays' for the layer, the
+neighbour lists' for the bed; tai_coll refuses more), whichever is smaller.
 Prints a table with the ratios and writes bench_results/bench_warp.json (every solver's
 figures and settings), rewritten as each row is finished. With --repeats N every row runs N
 times, tai_coll and Warp alternately, and reports its run of median ratio with the range:
@@ -66,6 +69,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import tai_coll as tc  # noqa: E402
+from tai_coll.neighbors import hash_grid  # noqa: E402
+from tai_coll.scene import particles  # noqa: E402
 from tools.bench import count, machine_info, report_path, write_json  # noqa: E402
 
 R = 0.005
@@ -110,6 +115,20 @@ def tai_coll_layer(n: int, frames: int) -> dict:
     y = scene.positions()[:, 1]
     return {"rate": n * SUBSTEPS * frames / seconds, "seconds": seconds, "lowest": float(y.min()),
             "state_bytes_per_particle": scene.state_nbytes() / n}
+
+
+def largest_scene(bytes_per_particle: float, memory_gb: float, pairs: bool) -> dict:
+    """The most particles of a row's scene that `memory_gb` (10^9 B) holds at the row's bytes a
+    particle, and what limits it: "memory", or Taichi's 32-bit array offsets, which tai_coll
+    enforces: particles.MAX_STORED for any scene, hash_grid.MAX_LISTED with particle
+    collisions (pairs)."""
+    by_memory = int(memory_gb * 1e9 // bytes_per_particle)
+    indexed, arrays = ((hash_grid.MAX_LISTED, "the neighbour lists") if pairs
+                       else (particles.MAX_STORED, "the particle arrays"))
+    if indexed < by_memory:
+        return {"particles": indexed, "limit": f"32-bit offsets of {arrays}", "by_memory": by_memory,
+                "memory_gb": memory_gb}
+    return {"particles": by_memory, "limit": "memory", "by_memory": by_memory, "memory_gb": memory_gb}
 
 
 def pair_options(spec: str) -> dict:
@@ -758,6 +777,12 @@ def print_table(rows: list, header: str) -> None:
         return (f"; the median of {len(runs)} runs, ratios {r['ratio_range'][0]:.2f}x to {r['ratio_range'][1]:.2f}x"
                 if len(runs) > 1 else "")
 
+    def held(res):  # bytes a particle, and the largest scene the memory holds
+        big = res["largest"]
+        limit = "" if big["limit"] == "memory" else f", by the {big['limit']}"
+        return (f"{res['state_bytes_per_particle']:.0f} B a particle: {big['particles'] / 1e6:,.1f}M in "
+                f"{big['memory_gb']:g} GB{limit}")
+
     def line(row, particles, solver, res, ratio, notes):
         overlap = f"{res['mean_overlap'] * 100:.2f}%r" if "mean_overlap" in res else ""
         speed = f"{res['max_speed']:.3f}m/s" if "max_speed" in res else ""
@@ -768,8 +793,7 @@ def print_table(rows: list, header: str) -> None:
     for r in rows:
         if r["row"] == "layer":
             line("layer", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
-                 f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} mm; "
-                 f"{r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
+                 f"lowest centre {r['tai_coll']['lowest'] * 1e3:.3f} mm; {held(r['tai_coll'])}")
             line("", "", "warp", r["warp"], r["ratio"], f"one kernel a step; lowest centre "
                  f"{r['warp']['lowest'] * 1e3:.3f} mm{spread(r)}")
             continue
@@ -778,13 +802,23 @@ def print_table(rows: list, header: str) -> None:
                   if "iterations" in method else "")
         name = {"gauss-seidel": "Gauss-Seidel impulses", "jacobi": "Jacobi impulses"}[method["method"]]
         line("bed", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
-             f"{name}{passes}{' (default)' if r['method'] == 'gauss-seidel' else ''}; "
-             f"{r['tai_coll']['state_bytes_per_particle']:.0f} B a particle")
+             f"{name}{passes}{' (default)' if r['method'] == 'gauss-seidel' else ''}; {held(r['tai_coll'])}")
         for k, res in r["warp"].items():
             notes = WARP_NOTES[k]() + (f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
             line("", "", k, res, r["ratio"][k], notes)
         print(f"{'':<6} {'':>10}  tai_coll against Warp's best ({r['warp_best']}): {r['ratio_to_best']:.2f}x"
               f"{spread(r)}")
+
+
+def gigabytes(text: str) -> float:
+    """A positive size in GB (argparse type)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a size in GB such as 80; got {text!r}")
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive, finite size in GB; got {text!r}")
+    return value
 
 
 def sizes(text: str) -> list:
@@ -821,6 +855,8 @@ def main(argv=None):
     parser.add_argument("--arch", default="cpu", choices=("cpu", "cuda"),
                         help="both sides on the CPU or on the first CUDA GPU (default cpu)")
     parser.add_argument("--threads", type=count(), default=2)
+    parser.add_argument("--memory-gb", type=gigabytes, default=80.0,
+                        help="report the largest scene of each row that this memory holds (10^9 B; default 80)")
     parser.add_argument("--out", default=str(ROOT / "bench_results" / "bench_warp.json"))
     args = parser.parse_args(argv)
     wanted = [r for r in args.rows.split(",") if r]
@@ -873,12 +909,15 @@ def main(argv=None):
         if "layer" in wanted:
             for n in args.layer_particles:
                 ours = tai_coll_layer(n, args.layer_frames)
+                ours["largest"] = largest_scene(ours["state_bytes_per_particle"], args.memory_gb, pairs=False)
                 theirs = warp_layer(wp, kernels, n, args.layer_frames, device)
                 done({"row": "layer", "particles": n, "tai_coll": ours, "warp": theirs,
                       "ratio": ours["rate"] / theirs["rate"]})
         if "bed" in wanted:
             for n in args.bed_particles:
                 ours = {m: tai_coll_bed(n, args.settle, args.timed, m) for m in methods}
+                for res in ours.values():
+                    res["largest"] = largest_scene(res["state_bytes_per_particle"], args.memory_gb, pairs=True)
                 theirs = {k: warp_bed(wp, kernels, k, n, args.settle, args.timed, device) for k in variants}
                 for m in methods:
                     done(bed_row(n, m, ours[m], theirs))

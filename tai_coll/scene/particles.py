@@ -24,6 +24,12 @@ QUANTITIES = ("x", "v", "mass", "radius", "flags", "allowance", "rest", "anchor"
 #: A particle's kept separating plane (solvers/impulse.py): its direction (3), level, the
 #: other colliders' clearance beyond the particle's kept clearance, and the collider's index.
 SEPARATION_SIZE = 6
+#: The most particles a scene holds. Taichi 1.7 computes an array's offsets in 32-bit integers, counting
+#: the scalars of vector elements (its issue 6758: an element past 2**31 - 1 scalars is written at a
+#: wrapped, negative offset; on the CPU a crash, elsewhere memory silently overwritten). The widest arrays
+#: a particle has are its kept plane (SEPARATION_SIZE scalars) and the rigid bodies' ledger (two 3-vectors),
+#: so 357,913,941 particles (particle collisions' neighbour lists allow fewer: hash_grid.MAX_LISTED).
+MAX_STORED = (2**31 - 1) // SEPARATION_SIZE
 #: Every array the store keeps per particle, in the order of _stored_arrays and _permute's arguments.
 STORED = QUANTITIES + ("clearance", "separation", "ids")
 
@@ -130,7 +136,7 @@ class ParticleStore:
     def __init__(self, capacity: int = 1024):
         self.count = 0
         self.capacity = 0
-        self.max_count = None  # the most particles the store may hold (particle collisions' lists); None: no limit
+        self.max_count = MAX_STORED  # the most particles the store may hold (fewer with particle collisions)
         self.max_radius = 0.0  # kept on the host: the hash grid's cell size needs it every substep
         self.min_radius = float("inf")  # (Scene's substeps="auto" needs it every frame)
         self.mass_range = (float("inf"), 0.0)  # lightest and heaviest mass (the pair solver's shock propagation)
@@ -236,11 +242,12 @@ class ParticleStore:
         if self.next_id + n > MAX_IDS:
             raise ValueError(f"positions: this scene has given out {self.next_id:,} particle ids; {n:,} more would "
                              f"pass the {MAX_IDS:,} it can hold")
-        if self.max_count is not None and self.count + n > self.max_count:
-            raise ValueError(f"positions: with particle collisions a scene holds at most {self.max_count:,} particles "
-                             f"(their neighbour lists' limit); it has {self.count:,}, and {n:,} more would pass it")
-        if self.count + n > self.capacity:
-            self._allocate(max(2 * self.capacity, self.count + n))
+        if self.count + n > self.max_count:
+            held = ("with particle collisions a scene holds" if self.max_count < MAX_STORED else "a scene holds")
+            raise ValueError(f"positions: {held} at most {self.max_count:,} particles (Taichi's 32-bit array "
+                             f"offsets); it has {self.count:,}, and {n:,} more would pass it")
+        if self.count + n > self.capacity:  # (doubling, but never past what the arrays can index)
+            self._allocate(max(min(2 * self.capacity, self.max_count), self.count + n))
         start = self.count
         if n:  # one launch (an emitter adds a few particles every substep)
             dtype = _numpy_dtype(self.x)
