@@ -92,6 +92,25 @@ def test_an_emitter_without_room_emits_fewer_and_counts_the_rest():
     assert pairwise_gaps(flood.positions(), flood.radii()).min() >= 0.0
 
 
+def test_an_emitter_stops_at_the_most_particles_a_scene_holds_and_counts_the_rest(monkeypatch):
+    # the store's limit (Taichi's 32-bit offsets; hash_grid.MAX_LISTED with pairs) lowered to
+    # 130: the emitter fills the scene up to it, warns once and counts what it could not add,
+    # instead of failing the step
+    monkeypatch.setattr("tai_coll.scene.particles.MAX_STORED", 130)
+    scene = still_scene(dt=0.5 / FPS, substeps=2)
+    scene.add_particles(positions=[[0.5, 0.5, 0.5]], radius=0.005)
+    emitter = scene.add_emitter(tc.Box(half_extents=(0.2, 0.2, 0.2)), rate=100 * FPS, radius=0.005,
+                                velocity=(0.0, 0.0, 0.0))
+    scene.step(1)  # 100 owed, all added
+    assert scene.num_particles == 101 and emitter.skipped == 0
+    with pytest.warns(RuntimeWarning, match="holds its most, 130 particles") as caught:
+        scene.step(2)  # 200 more owed: 29 fit
+    assert len([w for w in caught if "holds its most" in str(w.message)]) == 1
+    assert scene.num_particles == 130 and emitter.emitted == 129 and emitter.skipped == 171
+    assert scene.stats()["emission_skipped"] == 171
+    assert pairwise_gaps(scene.positions(), scene.radii()).min() >= 0.0
+
+
 def test_new_particles_are_placed_clear_of_colliders_and_of_the_particles_there():
     scene = still_scene()
     ball = tc.Sphere(center=(0.0, 0.0, 0.0), radius=0.08)

@@ -108,6 +108,7 @@ class Emitter:
         # the most particles the region could hold at once (the densest packing, centres in it)
         self.room = int(DENSEST * _volume(self.kind, self.size) / (4.0 / 3.0 * np.pi * self.radius ** 3)) + 1
         self.warned = False  # whether the scene warned that it found no room (once)
+        self.warned_full = False  # ... that the scene held all the particles it can (once)
 
     def __repr__(self):
         return (f"Emitter({type(self.region).__name__}, rate={self.rate:g}/s, radius={self.radius:g}, "
@@ -210,6 +211,16 @@ def emit(emitters, store, sinks, colliders, t1: float, dt: float):
     and of the colliders (entries at their poses now), appended to the store."""
     for k, emitter in enumerate(emitters):
         owed = emitter.owed(t1)
+        full = owed - min(owed, max(store.max_count - store.count, 0))
+        if full:  # the scene holds all the particles its arrays can index (ParticleStore.max_count)
+            emitter.skipped += full
+            owed -= full
+            if not emitter.warned_full:
+                emitter.warned_full = True
+                notices.warn(f"emitter {k} ({type(emitter.region).__name__}) skipped {full} particle(s) at "
+                             f"t = {t1:.6g} s: the scene holds its most, {store.max_count:,} particles (Taichi's "
+                             "32-bit array offsets). The count goes on in emitter.skipped; sinks make room",
+                             RuntimeWarning)
         if not owed:
             continue
         x, r = sinks.near(store, emitter)
