@@ -211,29 +211,31 @@ def emit(emitters, store, sinks, colliders, t1: float, dt: float):
     and of the colliders (entries at their poses now), appended to the store."""
     for k, emitter in enumerate(emitters):
         owed = emitter.owed(t1)
-        full = owed - min(owed, max(store.max_count - store.count, 0))
-        if full:  # the scene holds all the particles its arrays can index (ParticleStore.max_count)
+        if not owed:
+            continue
+        x, r = sinks.near(store, emitter)
+        before = emitter.skipped
+        new = emitter.place(owed, x, r, colliders)
+        if emitter.skipped > before and not emitter.warned:
+            emitter.warned = True
+            notices.warn(
+                f"emitter {k} ({type(emitter.region).__name__}, {emitter.rate:g} particles/s) found no room for "
+                f"{emitter.skipped - before} particle(s) at t = {t1:.6g} s: its region holds at most about "
+                f"{emitter.room:,} of radius {emitter.radius:g} m and must take {emitter.rate * dt:.3g} a substep "
+                "besides the particles already there (and stay clear of colliders). The count goes on in "
+                "emitter.skipped (stats()['emission_skipped']); a larger region, a lower rate or a faster velocity "
+                "out of it emits them all", RuntimeWarning)
+        full = len(new) - min(len(new), max(store.max_count - store.count, 0))
+        if full:  # placed, but the scene holds all the particles its arrays can index (ParticleStore.max_count)
+            new = new[:len(new) - full]
+            emitter.emitted -= full
             emitter.skipped += full
-            owed -= full
             if not emitter.warned_full:
                 emitter.warned_full = True
                 notices.warn(f"emitter {k} ({type(emitter.region).__name__}) skipped {full} particle(s) at "
                              f"t = {t1:.6g} s: the scene holds its most, {store.max_count:,} particles (Taichi's "
                              "32-bit array offsets). The count goes on in emitter.skipped; sinks make room",
                              RuntimeWarning)
-        if not owed:
-            continue
-        x, r = sinks.near(store, emitter)
-        new = emitter.place(owed, x, r, colliders)
-        if emitter.skipped and not emitter.warned:
-            emitter.warned = True
-            notices.warn(
-                f"emitter {k} ({type(emitter.region).__name__}, {emitter.rate:g} particles/s) found no room for "
-                f"{emitter.skipped} particle(s) by t = {t1:.6g} s: its region holds at most about {emitter.room:,} of "
-                f"radius {emitter.radius:g} m and must take {emitter.rate * dt:.3g} a substep besides the particles "
-                "already there (and stay clear of colliders). The count goes on in emitter.skipped "
-                "(stats()['emission_skipped']); a larger region, a lower rate or a faster velocity out of it emits "
-                "them all", RuntimeWarning)
         n = len(new)
         if n:  # (placed clear of everything: no overlap allowances to look for)
             store.add(new, np.tile(emitter.velocity, (n, 1)), np.full(n, emitter.mass), np.full(n, emitter.radius),
