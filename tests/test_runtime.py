@@ -138,6 +138,41 @@ def test_taichis_frontend_memos_leave_its_error_messages_as_they_were(tmp_path):
     assert "return a * 2.0 + unknown_value" in text and "^^^^^^^^^^^^^" in text
 
 
+def test_position_messages_wrap_every_line_as_textwrap_does():
+    # frontend_cache.line_wrapper: a line that fits is returned as it is (less trailing
+    # spaces) without TextWrapper's chunking, which took a quarter of the frontend's time; every
+    # line must come out as TextWrapper(width=80) makes it: the source lines of tai_coll and of
+    # Taichi's Python package (what Taichi quotes), their caret lines, and lines made to trip
+    # the shortcut (tabs, other whitespace, hyphens, the width's edge, non-ASCII, spaces alone)
+    import pathlib
+    import textwrap
+
+    import taichi
+
+    from tai_coll import frontend_cache
+
+    fast, slow = frontend_cache.line_wrapper(textwrap.TextWrapper)(width=80), textwrap.TextWrapper(width=80)
+    lines = []
+    for root in (pathlib.Path(tc.__file__).parent, pathlib.Path(taichi.__file__).parent / "lang"):
+        for path in sorted(root.rglob("*.py")):
+            for line in path.read_text(encoding="utf-8").splitlines():
+                lines += [line, " " * (len(line) - len(line.lstrip())) + "^" * len(line.strip()) + "   "]
+    assert len(lines) > 40_000
+    edge = "x" * 79
+    lines += ["", " ", " " * 100, "\t\tx = 1", "a\tb", "x = 1\x0c", "x = y\xa0", "x = y \xa0", "caf\u00e9 = 1",
+              edge, edge + " ", edge + "  ", edge + "y", edge + "y ", edge + "yz", " " + edge, " " + edge + "y",
+              "a-b-c " * 20, "- " * 45, "x" * 200, "   " + "-" * 77 + "   ", "\x1f", "a \x1f"]
+    wrong = [line for line in lines if fast.wrap(line) != slow.wrap(line)]
+    assert wrong == []
+    again = frontend_cache.line_wrapper(textwrap.TextWrapper)  # (longer lines: wrapped once, then kept)
+    assert [again(width=80).wrap(line) for line in lines * 2] == [slow.wrap(line) for line in lines * 2]
+    for options in (dict(break_on_hyphens=False), dict(drop_whitespace=False), dict(subsequent_indent="  ")):
+        odd, plain = again(width=30, **options), textwrap.TextWrapper(width=30, **options)
+        assert [odd.wrap(line) for line in lines[-10:] * 2] == [plain.wrap(line) for line in lines[-10:] * 2]
+    shortcut = [line for line in lines if line.isascii() and line.isprintable() and len(line.rstrip(" ")) <= 80]
+    assert len(shortcut) > 0.75 * len(lines)  # (most lines take the shortcut: the comparison tests it)
+
+
 def _piles_after(frames: int) -> list:
     """Positions and velocities of three small piles falling into a box for `frames` frames:
     Gauss-Seidel impulse pairs with sleeping (its default), Jacobi passes, and DEM pairs with
