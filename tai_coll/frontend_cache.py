@@ -81,6 +81,10 @@ def line_wrapper(base):
 
     longer = {}  # width -> {a longer line: its wrapping} (a line is quoted for each node on it)
 
+    @functools.cache
+    def defaults(width):
+        return vars(base(width=width))
+
     class LineWrapper(base):
         def wrap(self, text):
             if (text.isascii() and text.isprintable() and self.drop_whitespace and self.max_lines is None
@@ -96,10 +100,6 @@ def line_wrapper(base):
                         known[text] = super().wrap(text)
                     return list(known[text])
             return super().wrap(text)
-
-    @functools.cache
-    def defaults(width):
-        return vars(base(width=width))
 
     return LineWrapper
 

@@ -225,9 +225,10 @@ def emit(emitters, store, sinks, colliders, t1: float, dt: float):
                 "besides the particles already there (and stay clear of colliders). The count goes on in "
                 "emitter.skipped (stats()['emission_skipped']); a larger region, a lower rate or a faster velocity "
                 "out of it emits them all", RuntimeWarning)
-        full = len(new) - min(len(new), max(store.max_count - store.count, 0))
+        room = max(store.max_count - store.count, 0)
+        full = max(len(new) - room, 0)
         if full:  # placed, but the scene holds all the particles its arrays can index (ParticleStore.max_count)
-            new = new[:len(new) - full]
+            new = new[:room]
             emitter.emitted -= full
             emitter.skipped += full
             if not emitter.warned_full:

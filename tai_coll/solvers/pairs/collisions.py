@@ -102,7 +102,7 @@ class ParticleCollisions(DemSubsteps):
         self.levels = None  # support levels of shock propagation (shock.py), allocated when first needed
         self._push_cap = None  # placement.PushCap: its work while allowances are left
         self._awake, self._slept = ti.ndarray(ti.i32, shape=1), None  # update_rest's (see all_asleep)
-        self._calm, self.redo = awake_lists.Calm(), None  # lists of the awake (see impulse_substep)
+        self._calm, self.redo = None, None  # lists of the awake (see impulse_substep; made at its first substep)
         self._asleep = ti.ndarray(ti.i32, shape=1)  # update_rest's: whether any particle slept
         self._asleep.fill(0)
 
