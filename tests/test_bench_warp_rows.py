@@ -1,6 +1,10 @@
-"""tools/bench_warp.py's repeats: every row run several times is reported by its run of median
-ratio, with the ratios of all its runs (the tool itself needs warp-lang, a benchmark-only
-extra; this tests only how it folds its runs into rows)."""
+"""tools/bench_warp.py's rows: every row run several times is reported by its run of median
+ratio, with the ratios of all its runs; the largest scene a memory holds; and the figures
+measured alike on both sides of a bed (the tool itself needs warp-lang, a benchmark-only extra;
+these tests need none of it)."""
+
+import numpy as np
+import pytest
 
 from tools.bench_warp import median_rows
 
@@ -64,3 +68,19 @@ def test_the_largest_scene_in_memory_is_bounded_by_bytes_and_by_what_32_bit_offs
     small = largest_scene(484.0, 8.0, pairs=True)  # 8 GB: memory is the limit again
     assert small["particles"] == 16_528_925 and small["limit"] == "memory"
     assert small["particles"] * 484.0 <= 8e9 < (small["particles"] + 1) * 484.0
+
+
+def test_a_beds_contacts_are_its_overlap_and_touching_pairs_a_particle_measured_alike_on_both_sides():
+    from tools.bench_warp import R, contacts, overlap_of
+    # three in a row, 1.9 R apart: two pairs overlapping by 0.1 R, the ends 3.8 R apart not touching
+    x = np.array([[0.0, 0.0, 0.0], [1.9 * R, 0.0, 0.0], [3.8 * R, 0.0, 0.0]]) + 0.1
+    measured = contacts(overlap_of(x), len(x))
+    assert measured["mean_overlap"] == pytest.approx(0.1, rel=1e-4)
+    assert measured["touching_per_particle"] == pytest.approx(2 / 3)
+    apart = contacts(overlap_of(x * np.array([1.1, 1.0, 1.0])), len(x))
+    assert apart == {"mean_overlap": 0.0, "touching_per_particle": 0.0}
+
+
+def test_cpu_time_a_particle_step_counts_every_particle_and_step():
+    from tools.bench_warp import work
+    assert work(2.0, 1000, 100)["cpu_ns_per_particle_step"] == pytest.approx(20_000.0)

@@ -39,8 +39,10 @@ Rows (r = 5 mm, dt = 1/600 s, e = 0.5, mu = 0.3, f32, particle-steps per second)
     particle-step is one of dt = 1/600 s, as for the others. (Without tangential springs a
     loaded contact creeps: 7 mm/s on a slope of tan 0.2 < mu.)
   Every solver reports the mean overlap of touching pairs (relative to the radius, by a
-  tai_coll scene's measure) and the largest speed after the timed steps. tai_coll's ratio is
-  given against each, and against Warp's fastest (the overlaps beside the rates).
+  tai_coll scene's measure), the touching pairs a particle (how far its bed has packed: the
+  work each pair pass has) and the largest speed after the timed steps, and the process's CPU
+  time a particle-step. tai_coll's ratio is given against each, and against Warp's fastest
+  (the overlaps beside the rates).
   The first Warp solver here (PBD, 5.0e5 particle-steps/s) queried the hash grid in every
   Jacobi pass: 4 queries a step of 27 cells of 2 r, about 400 ns a particle each, 97 % of its
   time; and it cleared a 128^3 grid (16 MB) every build.
@@ -158,8 +160,9 @@ def tai_coll_bed(n: int, settle: int, timed: int, method: str = "gauss-seidel") 
     scene.step(timed // SUBSTEPS)
     ti.sync()
     seconds = time.perf_counter() - t0
-    return {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": time.process_time() - c0,
-            "mean_overlap": scene.particle_overlap()["mean"], **speeds(scene.velocities()),
+    cpu = time.process_time() - c0
+    return {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": cpu, **work(cpu, n, timed),
+            **contacts(scene.particle_overlap(), n), **speeds(scene.velocities()),
             "state_bytes_per_particle": scene.state_nbytes() / n}
 
 
@@ -706,8 +709,9 @@ def warp_bed(wp, kernels, variant: str, n: int, settle: int, timed: int, device:
     wp.synchronize_device(device)
     seconds = time.perf_counter() - t0
     # (cpu_seconds: this process's CPU time, for a loaded machine; Warp's CPU backend is one thread)
-    out = {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": time.process_time() - c0,
-           "mean_overlap": mean_overlap(x.numpy().astype(np.float64)),
+    cpu = time.process_time() - c0
+    out = {"rate": n * timed / seconds, "seconds": seconds, "cpu_seconds": cpu, **work(cpu, n, timed),
+           **contacts(overlap_of(x.numpy().astype(np.float64)), n),
            **speeds(v.numpy()),
            "dropped": int(dropped.numpy()[0])}
     return out
@@ -720,12 +724,26 @@ def speeds(v: np.ndarray) -> dict:
     return {"max_speed": float(speed.max()), "speed_p99": float(np.percentile(speed, 99))}
 
 
-def mean_overlap(x: np.ndarray) -> float:
-    """The mean overlap of touching pairs relative to the radius, by a tai_coll scene's own
-    measure (the same for both sides)."""
+def overlap_of(x: np.ndarray) -> dict:
+    """Scene.particle_overlap of particles of radius R at x: the measure of tai_coll's own
+    side, so that both sides are measured alike."""
     scene = tc.Scene()
     scene.add_particles(positions=x, radius=R)
-    return scene.particle_overlap()["mean"]
+    return scene.particle_overlap()
+
+
+def contacts(overlap: dict, n: int) -> dict:
+    """A bed's contacts at the end, from Scene.particle_overlap: the mean overlap of touching
+    pairs relative to the radius, and the touching pairs a particle (how far the bed has packed,
+    the work each pair pass has: the sides' beds need not be equally packed after the same
+    steps)."""
+    return {"mean_overlap": overlap["mean"], "touching_per_particle": overlap["pairs"] / n}
+
+
+def work(cpu_seconds: float, n: int, steps: int) -> dict:
+    """The process's CPU time a particle-step in ns (every thread counted: Warp's CPU backend
+    runs one, tai_coll's as many as asked)."""
+    return {"cpu_ns_per_particle_step": cpu_seconds / (n * steps) * 1e9}
 
 
 # ---------------------------------------------------------------------- main
@@ -783,6 +801,10 @@ def print_table(rows: list, header: str) -> None:
         return (f"{res['state_bytes_per_particle']:.0f} B a particle: {big['particles'] / 1e6:,.1f}M in "
                 f"{big['memory_gb']:g} GB{limit}")
 
+    def packing(res):  # touching pairs and CPU time, a particle
+        return (f"{res['touching_per_particle']:.2f} touching pairs a particle, "
+                f"{res['cpu_ns_per_particle_step']:.0f} ns of CPU a particle-step")
+
     def line(row, particles, solver, res, ratio, notes):
         overlap = f"{res['mean_overlap'] * 100:.2f}%r" if "mean_overlap" in res else ""
         speed = f"{res['max_speed']:.3f}m/s" if "max_speed" in res else ""
@@ -802,9 +824,11 @@ def print_table(rows: list, header: str) -> None:
                   if "iterations" in method else "")
         name = {"gauss-seidel": "Gauss-Seidel impulses", "jacobi": "Jacobi impulses"}[method["method"]]
         line("bed", f"{r['particles']:,}", "tai_coll", r["tai_coll"], None,
-             f"{name}{passes}{' (default)' if r['method'] == 'gauss-seidel' else ''}; {held(r['tai_coll'])}")
+             f"{name}{passes}{' (default)' if r['method'] == 'gauss-seidel' else ''}; {packing(r['tai_coll'])}; "
+             f"{held(r['tai_coll'])}")
         for k, res in r["warp"].items():
-            notes = WARP_NOTES[k]() + (f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
+            notes = WARP_NOTES[k]() + f"; {packing(res)}" + (
+                f"; {res['dropped']} list entries dropped!" if res["dropped"] else "")
             line("", "", k, res, r["ratio"][k], notes)
         print(f"{'':<6} {'':>10}  tai_coll against Warp's best ({r['warp_best']}): {r['ratio_to_best']:.2f}x"
               f"{spread(r)}")
